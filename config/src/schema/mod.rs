@@ -1,0 +1,79 @@
+//! The daemon's configuration file: `Config(version: 1, backend: ..., ...)`.
+//!
+//! Sections other than `backend` are optional; an absent section takes its documented
+//! defaults. Types that the control core consumes directly (geometry, gains, tracker
+//! constants) are defined in `control` and validated here.
+
+mod backend;
+mod control_section;
+mod daemon_sections;
+mod robot;
+mod tracker_section;
+
+use serde::{Deserialize, Serialize};
+
+pub use backend::{Backend, CanJoints, HardwareBackend, SerialTactile, SimBackend};
+pub use control_section::ControlSection;
+pub use daemon_sections::{ConsoleSection, RecordingSection, SafetySection};
+pub use robot::RobotSection;
+pub use tracker_section::TrackerSection;
+
+use crate::validate::{Validate, Validator};
+
+/// The file format version this build reads.
+pub const CONFIG_VERSION: u32 = 1;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename = "Config", deny_unknown_fields)]
+pub struct Config {
+    pub version: u32,
+    pub backend: Backend,
+    #[serde(default)]
+    pub robot: RobotSection,
+    #[serde(default)]
+    pub control: ControlSection,
+    #[serde(default)]
+    pub sensor: control::sensor::ArrayGeometry,
+    #[serde(default)]
+    pub tracker: TrackerSection,
+    #[serde(default)]
+    pub safety: SafetySection,
+    #[serde(default)]
+    pub console: ConsoleSection,
+    #[serde(default)]
+    pub recording: RecordingSection,
+}
+
+impl Validate for Config {
+    fn validate(&self, v: &mut Validator) {
+        v.check(
+            self.version == CONFIG_VERSION,
+            "version",
+            format!(
+                "unsupported version {} (this build reads {CONFIG_VERSION})",
+                self.version
+            ),
+        );
+        v.section("backend", &self.backend);
+        v.section("robot", &self.robot);
+        v.section("control", &self.control);
+        v.section("sensor", &self.sensor);
+        v.section("tracker", &self.tracker);
+        v.section("safety", &self.safety);
+        v.section("console", &self.console);
+        v.section("recording", &self.recording);
+    }
+}
+
+impl Validate for control::sensor::ArrayGeometry {
+    fn validate(&self, v: &mut Validator) {
+        v.positive("pitch_m", self.pitch_m);
+        v.check(
+            self.direction == 1.0 || self.direction == -1.0,
+            "direction",
+            format!("must be 1 or -1, got {}", self.direction),
+        );
+        v.positive("noise_sd_n", self.noise_sd_n);
+        v.positive("sample_rate_hz", self.sample_rate_hz);
+    }
+}

@@ -1,0 +1,5 @@
+//! Moving the sensor between tracker targets.
+
+pub mod params;
+
+pub use params::MotionParams;

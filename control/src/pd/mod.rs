@@ -1,0 +1,5 @@
+//! The PD joint controller.
+
+pub mod params;
+
+pub use params::PdParams;

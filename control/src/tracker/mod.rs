@@ -1,0 +1,193 @@
+//! Artery trackers: pure state machines fed one tactile frame at a time.
+//!
+//! A tracker sees every tactile frame together with where the robot *believes* the sensor is
+//! (encoders plus the fixed-pivot model) and whether the last motion has settled. It answers
+//! with a motion command and at most one event per frame. The surgeon's workflow maps onto
+//! its methods: [`Tracker::mark`] twice at manual placements to seed, [`Tracker::start`] to
+//! follow the artery on its own, [`Tracker::stop`] to end. The simulator's lockstep runner
+//! and the daemon drive any tracker through this trait, chosen by name with [`build`].
+
+use serde::{Deserialize, Serialize};
+
+use crate::frames::SurfacePoint;
+use crate::types::TactileFrame;
+
+/// What a tracker is given with each tactile frame.
+#[derive(Debug, Clone, Copy)]
+pub struct TrackerInput<'a> {
+    pub frame: &'a TactileFrame,
+    /// Where the robot believes the centre of the element line is, tissue frame.
+    pub sensor: SurfacePoint,
+    /// The last commanded motion has finished: the sensor is within the arrival tolerance
+    /// of its target and no longer moving.
+    pub settled: bool,
+}
+
+/// Where the tracker wants the sensor to go.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MotionCommand {
+    /// Stay (or come to rest) where the sensor is.
+    Hold,
+    /// Move the centre of the element line to `target` in a straight line at up to
+    /// `speed_m_s`, keeping contact with the tissue.
+    MoveTo {
+        target: SurfacePoint,
+        speed_m_s: f64,
+    },
+}
+
+/// A point the tracker reports as lying on the artery.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LocatedPoint {
+    /// Time of the localization, s.
+    pub t_s: f64,
+    /// The artery point, tissue frame.
+    pub point: SurfacePoint,
+    /// Where the robot believed the sensor centre was when it localized.
+    pub sensor: SurfacePoint,
+    /// Position on the array, in (possibly fractional) element indices from element 0.
+    pub element: f64,
+    /// Pulse amplitude at the located element, N (peak minus off-peak).
+    pub amplitude_n: f64,
+    /// True for the surgeon's manual placements.
+    pub seed: bool,
+}
+
+/// Why tracking ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EndReason {
+    /// The requested length of artery was followed.
+    LengthReached,
+    /// The pulse could not be found again: the step fell below its minimum.
+    Lost,
+    /// The next target lies outside the reachable or allowed workspace.
+    WorkspaceEdge,
+    /// Stopped on request.
+    Stopped,
+}
+
+impl EndReason {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            EndReason::LengthReached => "length_reached",
+            EndReason::Lost => "lost",
+            EndReason::WorkspaceEdge => "workspace_edge",
+            EndReason::Stopped => "stopped",
+        }
+    }
+
+    /// A normal end of a trial (as opposed to losing the artery or hitting a limit).
+    pub fn is_completed(&self) -> bool {
+        matches!(self, EndReason::LengthReached)
+    }
+}
+
+/// Something a tracker reports, at most one per frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TrackerEvent {
+    /// The artery was found at a point (a seed mark or a tracking step).
+    Located(LocatedPoint),
+    /// An acquisition here found no pulse.
+    Missed { t_s: f64, at: SurfacePoint },
+    /// Going back toward the last place the pulse was found.
+    Backtracking { t_s: f64, toward: SurfacePoint },
+    /// The pulse period estimate changed.
+    Pulse { t_s: f64, period_s: f64 },
+    /// Tracking ended.
+    Finished { t_s: f64, reason: EndReason },
+}
+
+/// A tracker's answer to one frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackerOutput {
+    pub motion: MotionCommand,
+    pub event: Option<TrackerEvent>,
+}
+
+impl TrackerOutput {
+    pub const HOLD: Self = Self {
+        motion: MotionCommand::Hold,
+        event: None,
+    };
+}
+
+/// Where a tracker is in the surgeon's workflow.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrackerPhase {
+    /// Waiting for manual placements; holds the number of seed points so far.
+    Seeding { seeds: usize },
+    /// Acquiring at a manual placement.
+    Marking,
+    /// Following the artery on its own.
+    Tracking,
+    /// Done; see the reason.
+    Finished(EndReason),
+}
+
+/// How far to track.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+pub struct TrackLimit {
+    /// Stop after following this much artery (path length along the located points from
+    /// the first seed), m; `None` tracks until the artery is lost or a limit is met.
+    pub length_m: Option<f64>,
+}
+
+/// A request the tracker refuses in its current phase.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TrackerError {
+    #[error("cannot {verb} while {phase}")]
+    WrongPhase {
+        verb: &'static str,
+        phase: &'static str,
+    },
+    #[error("tracking needs two manual placements where the pulse was found; have {have}")]
+    NotSeeded { have: usize },
+    #[error("invalid track limit: {0}")]
+    BadLimit(String),
+}
+
+impl TrackerPhase {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            TrackerPhase::Seeding { .. } => "seeding",
+            TrackerPhase::Marking => "marking",
+            TrackerPhase::Tracking => "tracking",
+            TrackerPhase::Finished(_) => "finished",
+        }
+    }
+}
+
+/// The interface every tracker implements.
+pub trait Tracker: Send {
+    /// The name the command line and config use to select this tracker.
+    fn name(&self) -> &'static str;
+
+    fn phase(&self) -> TrackerPhase;
+
+    /// Acquire at the current, stationary, manual placement and localize the artery there.
+    /// A `Located` (seed) or `Missed` event follows once the acquisition is complete.
+    fn mark(&mut self) -> Result<(), TrackerError>;
+
+    /// Begin following the artery from the seed points.
+    fn start(&mut self, limit: TrackLimit) -> Result<(), TrackerError>;
+
+    /// End tracking now (the next step reports `Finished { reason: Stopped }`).
+    fn stop(&mut self);
+
+    /// The last commanded target cannot be reached (outside the workspace, too close to the
+    /// pivot, out of the depth range): tracking ends with `WorkspaceEdge`.
+    fn target_unreachable(&mut self);
+
+    /// Consume one tactile frame.
+    fn step(&mut self, input: &TrackerInput<'_>) -> TrackerOutput;
+}
+
+pub mod seed2002;
+
+/// Settings of every tracker, each under its name.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrackerParams {
+    pub seed2002: seed2002::Seed2002Params,
+}

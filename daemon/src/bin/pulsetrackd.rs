@@ -1,0 +1,5 @@
+//! `pulsetrackd`: the tracking daemon.
+
+fn main() -> std::process::ExitCode {
+    pulsetrack_daemon::pulsetrackd_main()
+}

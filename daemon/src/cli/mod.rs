@@ -1,0 +1,31 @@
+//! The `pulsetrack` command line: one module per subcommand.
+
+mod check_config;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "pulsetrack",
+    version,
+    about = "Tactile artery tracking: console, simulator and tools"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Check a configuration or scene file and report every problem with file, line and field.
+    CheckConfig(check_config::Args),
+}
+
+pub fn run() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::CheckConfig(args) => check_config::run(&args),
+    }
+}

@@ -1,0 +1,20 @@
+//! The composition root of pulsetrack.
+//!
+//! `pulsetrackd` (the daemon) and `pulsetrack` (the command-line tool) are thin wrappers
+//! around [`pulsetrackd_main`] and [`pulsetrack_main`], so that end-to-end tests can build
+//! the very same programs under their own names.
+
+pub mod cli;
+
+use std::process::ExitCode;
+
+/// Entry point of the `pulsetrack` command-line tool.
+pub fn pulsetrack_main() -> ExitCode {
+    cli::run()
+}
+
+/// Entry point of the `pulsetrackd` daemon.
+pub fn pulsetrackd_main() -> ExitCode {
+    eprintln!("pulsetrackd: the daemon is not built yet; use `pulsetrack sim`");
+    ExitCode::FAILURE
+}
