@@ -5,6 +5,7 @@
 //! the very same programs under their own names.
 
 pub mod cli;
+pub mod plot;
 
 use std::process::ExitCode;
 

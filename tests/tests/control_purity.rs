@@ -11,28 +11,67 @@ fn workspace_root() -> PathBuf {
 #[test]
 fn control_has_no_runtime_or_io_dependencies() {
     let out = Command::new(env!("CARGO"))
-        .args(["tree", "-p", "pulsetrack-control", "-e", "normal", "--prefix", "none", "--offline"])
+        .args([
+            "tree",
+            "-p",
+            "pulsetrack-control",
+            "-e",
+            "normal",
+            "--prefix",
+            "none",
+            "--offline",
+        ])
         .current_dir(workspace_root())
         .output()
         .expect("run cargo tree");
-    assert!(out.status.success(), "cargo tree failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "cargo tree failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let tree = String::from_utf8_lossy(&out.stdout);
     let forbidden = [
-        "tokio", "tokio-serial", "socketcan", "mio", "async-std", "smol", "futures", "serialport",
-        "libc", "nix", "crossbeam-channel", "tracing",
+        "tokio",
+        "tokio-serial",
+        "socketcan",
+        "mio",
+        "async-std",
+        "smol",
+        "futures",
+        "serialport",
+        "libc",
+        "nix",
+        "crossbeam-channel",
+        "tracing",
     ];
     for line in tree.lines() {
         let name = line.split_whitespace().next().unwrap_or("");
-        assert!(!forbidden.contains(&name), "control depends on `{name}`: the core must stay pure");
+        assert!(
+            !forbidden.contains(&name),
+            "control depends on `{name}`: the core must stay pure"
+        );
     }
-    assert!(tree.contains("nalgebra"), "sanity: the tree lists control's real dependencies");
+    assert!(
+        tree.contains("nalgebra"),
+        "sanity: the tree lists control's real dependencies"
+    );
 }
 
 #[test]
 fn control_source_does_no_io_and_reads_no_clock() {
     let forbidden = [
-        "std::fs", "std::net", "std::io", "std::time", "std::thread", "std::process", "std::env",
-        "Instant::", "SystemTime", "println!", "eprintln!", "print!(",
+        "std::fs",
+        "std::net",
+        "std::io",
+        "std::time",
+        "std::thread",
+        "std::process",
+        "std::env",
+        "Instant::",
+        "SystemTime",
+        "println!",
+        "eprintln!",
+        "print!(",
     ];
     let mut files = Vec::new();
     collect_rs(&workspace_root().join("control/src"), &mut files);
