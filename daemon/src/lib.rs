@@ -4,8 +4,11 @@
 //! around [`pulsetrackd_main`] and [`pulsetrack_main`], so that end-to-end tests can build
 //! the very same programs under their own names.
 
+pub mod backend;
 pub mod cli;
 pub mod plot;
+pub mod rt;
+pub mod slot;
 
 use std::process::ExitCode;
 

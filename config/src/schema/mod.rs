@@ -14,7 +14,9 @@ use serde::{Deserialize, Serialize};
 
 pub use backend::{Backend, CanJoints, HardwareBackend, SerialTactile, SimBackend};
 pub use control_section::ControlSection;
-pub use daemon_sections::{ConsoleSection, RecordingSection, SafetySection};
+pub use daemon_sections::{
+    ConsoleSection, OperationSection, RealtimeSection, RecordingSection, SafetySection,
+};
 pub use robot::RobotSection;
 pub use tracker_section::TrackerSection;
 
@@ -39,6 +41,10 @@ pub struct Config {
     #[serde(default)]
     pub safety: SafetySection,
     #[serde(default)]
+    pub operation: OperationSection,
+    #[serde(default)]
+    pub realtime: RealtimeSection,
+    #[serde(default)]
     pub console: ConsoleSection,
     #[serde(default)]
     pub recording: RecordingSection,
@@ -60,6 +66,8 @@ impl Validate for Config {
         v.section("sensor", &self.sensor);
         v.section("tracker", &self.tracker);
         v.section("safety", &self.safety);
+        v.section("operation", &self.operation);
+        v.section("realtime", &self.realtime);
         v.section("console", &self.console);
         v.section("recording", &self.recording);
     }
