@@ -14,7 +14,7 @@ use crate::backend::{ArmPort, TactilePort};
 use crate::rt::fault::{Fault, FaultKind};
 use crate::rt::flight_recorder::{CycleRecord, FlightRecorder};
 use crate::rt::link::{
-    ControlCommand, ControlEvent, ControlStatus, LoopMode, Refusal, StampedFrame,
+    ControlCommand, ControlEvent, ControlStatus, LoopMode, LoopSample, Refusal, StampedFrame,
 };
 use crate::rt::safety::{self, SafetyLimits, TorqueGuard};
 use crate::rt::servo::{SensorPose, Servo};
@@ -29,9 +29,11 @@ const MAX_COMMANDS_PER_CYCLE: usize = 16;
 pub struct LoopLinks {
     pub commands: Receiver<ControlCommand>,
     pub events: Sender<ControlEvent>,
-    pub frames: Sender<StampedFrame>,
+    pub samples: Sender<LoopSample>,
     pub status: Arc<Slot<ControlStatus>>,
     pub flight: FlightRecorder,
+    /// Send the joint state every this many cycles.
+    pub joint_every: u32,
 }
 
 pub struct ControlLoop {
@@ -193,7 +195,9 @@ impl ControlLoop {
                 motion_seq: self.status.motion_seq,
                 contact_n,
             };
-            if let Err(TrySendError::Full(_)) = self.links.frames.try_send(stamped) {
+            if let Err(TrySendError::Full(_)) =
+                self.links.samples.try_send(LoopSample::Frame(stamped))
+            {
                 self.status.dropped += 1;
             }
         }
@@ -392,6 +396,19 @@ impl ControlLoop {
     fn publish(&mut self, now: f64) {
         self.record_flight(now);
         self.links.status.write(&self.status);
+        if self
+            .status
+            .cycle
+            .is_multiple_of(u64::from(self.links.joint_every.max(1)))
+        {
+            let sample = LoopSample::Joints {
+                status: self.status,
+                truth: self.arm.truth(),
+            };
+            if let Err(TrySendError::Full(_)) = self.links.samples.try_send(sample) {
+                self.status.dropped += 1;
+            }
+        }
     }
 
     /// Send an event from the loop's thread (timing reports); false if it had to be dropped.

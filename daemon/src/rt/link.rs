@@ -114,6 +114,16 @@ pub struct StampedFrame {
     pub contact_n: f64,
 }
 
+/// Data the loop streams out: every tactile frame, and the joint state every few cycles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LoopSample {
+    Frame(StampedFrame),
+    Joints {
+        status: ControlStatus,
+        truth: Option<crate::backend::Truth>,
+    },
+}
+
 /// Power state of the loop.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LoopMode {

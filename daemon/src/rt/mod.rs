@@ -2,6 +2,7 @@
 //! recorder, timing, and the link to the rest of the daemon.
 
 pub mod control_loop;
+pub mod core_servo;
 pub mod fault;
 pub mod flight_recorder;
 pub mod link;

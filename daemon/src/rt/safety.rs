@@ -51,13 +51,21 @@ impl SafetyLimits {
     }
 }
 
+/// `a <= b`, false when either is NaN: a NaN never passes a check.
+fn at_most(a: f64, b: f64) -> bool {
+    matches!(
+        a.partial_cmp(&b),
+        Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+    )
+}
+
 /// Joint data: finite and fresh.
 pub fn check_joint_data(l: &SafetyLimits, now_s: f64, s: &JointState) -> Result<(), Fault> {
     if !s.is_finite() {
         return Err(Fault::new(FaultKind::NonFiniteJoints, now_s));
     }
     let age = now_s - s.t_s;
-    if !(age <= l.joint_stale_s) {
+    if !at_most(age, l.joint_stale_s) {
         return Err(Fault::new(FaultKind::JointStale, now_s).with_values(age, l.joint_stale_s));
     }
     Ok(())
@@ -96,10 +104,10 @@ pub fn check_pose(
     pose: &SensorPose,
     step: &ServoStep,
 ) -> Result<(), Fault> {
-    if !(pose.depth_m >= l.min_depth_m) {
+    if !at_most(l.min_depth_m, pose.depth_m) {
         return Err(Fault::new(FaultKind::Depth, now_s).with_values(pose.depth_m, l.min_depth_m));
     }
-    if !(pose.depth_m <= l.max_depth_m) {
+    if !at_most(pose.depth_m, l.max_depth_m) {
         return Err(Fault::new(FaultKind::Depth, now_s).with_values(pose.depth_m, l.max_depth_m));
     }
     let sp = step.setpoint;
@@ -112,7 +120,7 @@ pub fn check_pose(
         return Err(Fault::new(FaultKind::Workspace, now_s).with_values(value, limit));
     }
     let err = pose.centre.distance_to(&sp);
-    if !(err <= l.max_sensor_error_m) {
+    if !at_most(err, l.max_sensor_error_m) {
         return Err(
             Fault::new(FaultKind::SensorError, now_s).with_values(err, l.max_sensor_error_m)
         );
@@ -136,10 +144,10 @@ pub fn check_tactile(
     contact_n: f64,
 ) -> Result<(), Fault> {
     let age = now_s - newest_t_s;
-    if !(age <= l.tactile_stale_s) {
+    if !at_most(age, l.tactile_stale_s) {
         return Err(Fault::new(FaultKind::TactileStale, now_s).with_values(age, l.tactile_stale_s));
     }
-    if !(contact_n <= l.contact_force_max_n) {
+    if !at_most(contact_n, l.contact_force_max_n) {
         return Err(Fault::new(FaultKind::ContactForce, now_s)
             .with_values(contact_n, l.contact_force_max_n));
     }
