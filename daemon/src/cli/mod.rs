@@ -1,6 +1,7 @@
 //! The `pulsetrack` command line: one module per subcommand.
 
 mod check_config;
+pub mod console;
 
 use std::process::ExitCode;
 
@@ -21,11 +22,15 @@ struct Cli {
 enum Command {
     /// Check a configuration or scene file and report every problem with file, line and field.
     CheckConfig(check_config::Args),
+    /// Talk to the running daemon over its console socket.
+    #[command(flatten)]
+    Console(console::Verb),
 }
 
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::CheckConfig(args) => check_config::run(&args),
+        Command::Console(verb) => console::run(&verb),
     }
 }
