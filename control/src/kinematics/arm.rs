@@ -190,8 +190,7 @@ impl ArmModel {
         let q = self.joints_for_sensor(position)?;
         let j = self.sensor_jacobian(&q)?;
         let sigma_min = j.singular_values().min();
-        // Written so that a NaN singular value also refuses.
-        if !(sigma_min >= MIN_SENSOR_GAIN_M_PER_RAD) {
+        if sigma_min.is_nan() || sigma_min < MIN_SENSOR_GAIN_M_PER_RAD {
             return Err(KinematicsError::NearSingular {
                 sigma_min_m_per_rad: sigma_min,
                 limit_m_per_rad: MIN_SENSOR_GAIN_M_PER_RAD,
