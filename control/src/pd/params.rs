@@ -21,8 +21,9 @@ pub struct PdParams {
 
 impl Default for PdParams {
     fn default() -> Self {
-        // Low gains for smooth sliding, as the seed used: about 160-250 N/m laterally at the
-        // sensor in the default placement (the Phantom itself renders up to ~3.5 N/mm), yet
+        // Low gains for smooth sliding, as the seed used: 140-360 N/m laterally and 330-490
+        // N/m vertically at the sensor over the default patch (a Phantom renders up to
+        // ~3.5 N/mm), yet
         // stable with margin at 1 kHz for every joint inertia from the bare arm's to the arm's
         // with rod and the seed's 0.3 kg mass: see docs/kinematics.md and pd::stability.
         // Torque limits are the motors' 28.6 mN·m continuous through capstans of 13.3 / 11.2
