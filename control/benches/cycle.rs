@@ -41,7 +41,12 @@ fn main() {
         PhantomGeometry::default(),
         JointLimits::default(),
         pivot,
-        tissue_under_pivot(&pivot, DEFAULT_SENSOR_OFFSET_M, DEFAULT_SURFACE_DEPTH_M, 0.0),
+        tissue_under_pivot(
+            &pivot,
+            DEFAULT_SENSOR_OFFSET_M,
+            DEFAULT_SURFACE_DEPTH_M,
+            0.0,
+        ),
         DEFAULT_SENSOR_OFFSET_M,
     )
     .expect("default geometry");
@@ -65,7 +70,12 @@ fn main() {
     let mut pd = PdController::new(PdParams::default()).expect("default gains");
     let mut planner = MotionPlanner::new(MotionParams::default()).expect("default motion");
     planner
-        .start(SurfacePoint::new(-0.1, 0.0), SurfacePoint::new(0.1, 0.03), 0.03, 0.0)
+        .start(
+            SurfacePoint::new(-0.1, 0.0),
+            SurfacePoint::new(0.1, 0.03),
+            0.03,
+            0.0,
+        )
         .expect("valid move");
 
     let pd_ns = median_ns(|i| {
@@ -79,42 +89,69 @@ fn main() {
         black_box(pd.step(black_box(&sp), &st, &[0.0; 3], 1e-3).ok());
     });
     let rows: Vec<(&str, f64)> = vec![
-        ("phantom::forward", median_ns(|i| {
-            black_box(phantom::forward(&geom, black_box(&joints[i % 64])).ok());
-        })),
-        ("phantom::inverse", median_ns(|i| {
-            black_box(phantom::inverse(&geom, black_box(&gimbals[i % 64])).ok());
-        })),
-        ("ArmModel::sensor_from_joints", median_ns(|i| {
-            black_box(arm.sensor_from_joints(black_box(&joints[i % 64])).ok());
-        })),
-        ("ArmModel::joints_for_sensor", median_ns(|i| {
-            black_box(arm.joints_for_sensor(black_box(&points[i % 64])).ok());
-        })),
-        ("ArmModel::sensor_jacobian", median_ns(|i| {
-            black_box(arm.sensor_jacobian(black_box(&joints[i % 64])).ok());
-        })),
-        ("ArmModel::joint_setpoint", median_ns(|i| {
-            black_box(arm.joint_setpoint(black_box(&points[i % 64]), &v).ok());
-        })),
-        ("PhantomGravity::torque_nm", median_ns(|i| {
-            black_box(gravity.torque_nm(black_box(&joints[i % 64])));
-        })),
-        ("MotionPlanner::setpoint", median_ns(|i| {
-            black_box(planner.setpoint(black_box(i as f64 * 1e-4)));
-        })),
+        (
+            "phantom::forward",
+            median_ns(|i| {
+                black_box(phantom::forward(&geom, black_box(&joints[i % 64])).ok());
+            }),
+        ),
+        (
+            "phantom::inverse",
+            median_ns(|i| {
+                black_box(phantom::inverse(&geom, black_box(&gimbals[i % 64])).ok());
+            }),
+        ),
+        (
+            "ArmModel::sensor_from_joints",
+            median_ns(|i| {
+                black_box(arm.sensor_from_joints(black_box(&joints[i % 64])).ok());
+            }),
+        ),
+        (
+            "ArmModel::joints_for_sensor",
+            median_ns(|i| {
+                black_box(arm.joints_for_sensor(black_box(&points[i % 64])).ok());
+            }),
+        ),
+        (
+            "ArmModel::sensor_jacobian",
+            median_ns(|i| {
+                black_box(arm.sensor_jacobian(black_box(&joints[i % 64])).ok());
+            }),
+        ),
+        (
+            "ArmModel::joint_setpoint",
+            median_ns(|i| {
+                black_box(arm.joint_setpoint(black_box(&points[i % 64]), &v).ok());
+            }),
+        ),
+        (
+            "PhantomGravity::torque_nm",
+            median_ns(|i| {
+                black_box(gravity.torque_nm(black_box(&joints[i % 64])));
+            }),
+        ),
+        (
+            "MotionPlanner::setpoint",
+            median_ns(|i| {
+                black_box(planner.setpoint(black_box(i as f64 * 1e-4)));
+            }),
+        ),
         ("PdController::step", pd_ns),
-        ("one cycle: setpoint + joint_setpoint + gravity + PD", median_ns(|i| {
-            let (p, vel) = planner.setpoint(i as f64 * 1e-4).expect("running");
-            let sp = arm.joint_setpoint(&p, &vel).expect("reachable");
-            let g = gravity.torque_nm(&sp.position_rad);
-            let st = JointState {
-                t_s: 0.0,
-                position_rad: sp.position_rad,
-                velocity_rad_s: sp.velocity_rad_s,
-            };
-            black_box(pd.step(&sp, &st, &g, 1e-3).ok());
-        })),
+        (
+            "one cycle: setpoint + joint_setpoint + gravity + PD",
+            median_ns(|i| {
+                let (p, vel) = planner.setpoint(i as f64 * 1e-4).expect("running");
+                let sp = arm.joint_setpoint(&p, &vel).expect("reachable");
+                let g = gravity.torque_nm(&sp.position_rad);
+                let st = JointState {
+                    t_s: 0.0,
+                    position_rad: sp.position_rad,
+                    velocity_rad_s: sp.velocity_rad_s,
+                };
+                black_box(pd.step(&sp, &st, &g, 1e-3).ok());
+            }),
+        ),
     ];
     println!("{:<52} {:>10} {:>8}", "call", "median ns", "x PD");
     for (name, ns) in rows {

@@ -52,7 +52,12 @@ fn two_thousand_cycles_allocate_nothing() {
         PhantomGeometry::default(),
         JointLimits::default(),
         pivot,
-        tissue_under_pivot(&pivot, DEFAULT_SENSOR_OFFSET_M, DEFAULT_SURFACE_DEPTH_M, 0.0),
+        tissue_under_pivot(
+            &pivot,
+            DEFAULT_SENSOR_OFFSET_M,
+            DEFAULT_SURFACE_DEPTH_M,
+            0.0,
+        ),
         DEFAULT_SENSOR_OFFSET_M,
     )
     .expect("default geometry");
@@ -60,7 +65,12 @@ fn two_thousand_cycles_allocate_nothing() {
     let mut pd = PdController::new(PdParams::default()).expect("default gains");
     let mut planner = MotionPlanner::new(MotionParams::default()).expect("default motion");
     planner
-        .start(SurfacePoint::new(0.0, 0.0), SurfacePoint::new(0.02, 0.01), 0.02, 0.0)
+        .start(
+            SurfacePoint::new(0.0, 0.0),
+            SurfacePoint::new(0.02, 0.01),
+            0.02,
+            0.0,
+        )
         .expect("a valid move");
     let mut q = arm
         .joints_for_sensor(&Point3::new(0.0, -0.003, 0.0))
