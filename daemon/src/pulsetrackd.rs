@@ -123,6 +123,19 @@ pub enum StartError {
     Io(#[from] std::io::Error),
 }
 
+/// What the daemon drives: the backend's ports, the servo and a tracker per trial.
+pub struct Parts {
+    pub backend: backend::Backend,
+    pub servo: Box<dyn crate::rt::servo::Servo>,
+    pub tracker: crate::supervisor::TrackerFactory,
+}
+
+impl std::fmt::Debug for Parts {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Parts").field("backend", &self.backend).finish()
+    }
+}
+
 /// A running daemon.
 pub struct Daemon {
     runtime: tokio::runtime::Runtime,
@@ -145,12 +158,25 @@ impl std::fmt::Debug for Daemon {
 }
 
 impl Daemon {
-    /// Open the backend, start every task, bind the console socket.
+    /// Open the backend the config names, start every task, bind the console socket.
     pub fn start(loaded: LoadedConfig) -> Result<Daemon, StartError> {
         let c = &loaded.config;
-        let opened = backend::open(c, loaded.dir.as_deref())?;
-        let servo = crate::rt::core_servo::build(c).map_err(StartError::Control)?;
-        let factory = crate::rt::core_servo::tracker_factory(c).map_err(StartError::Control)?;
+        let parts = Parts {
+            backend: backend::open(c, loaded.dir.as_deref())?,
+            servo: crate::rt::core_servo::build(c).map_err(StartError::Control)?,
+            tracker: crate::rt::core_servo::tracker_factory(c).map_err(StartError::Control)?,
+        };
+        Self::start_with(loaded, parts)
+    }
+
+    /// Start with the given backend, servo and trackers (tests substitute doubles here).
+    pub fn start_with(loaded: LoadedConfig, parts: Parts) -> Result<Daemon, StartError> {
+        let c = &loaded.config;
+        let Parts {
+            backend: opened,
+            servo,
+            tracker: factory,
+        } = parts;
 
         let recording_dir = PathBuf::from(&c.recording.dir);
         std::fs::create_dir_all(&recording_dir)?;
