@@ -132,7 +132,9 @@ pub struct Parts {
 
 impl std::fmt::Debug for Parts {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Parts").field("backend", &self.backend).finish()
+        f.debug_struct("Parts")
+            .field("backend", &self.backend)
+            .finish()
     }
 }
 

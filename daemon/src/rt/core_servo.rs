@@ -52,13 +52,26 @@ pub fn kinematic_fault(e: &KinematicsError, t_s: f64) -> Fault {
             max_rad,
         } => Fault::new(FaultKind::JointLimit, t_s)
             .on_axis(joint)
-            .with_values(value_rad, if value_rad < min_rad { min_rad } else { max_rad }),
+            .with_values(
+                value_rad,
+                if value_rad < min_rad {
+                    min_rad
+                } else {
+                    max_rad
+                },
+            ),
         KinematicsError::CouplingLimit {
             value_rad,
             min_rad,
             max_rad,
-        } => Fault::new(FaultKind::CouplingLimit, t_s)
-            .with_values(value_rad, if value_rad < min_rad { min_rad } else { max_rad }),
+        } => Fault::new(FaultKind::CouplingLimit, t_s).with_values(
+            value_rad,
+            if value_rad < min_rad {
+                min_rad
+            } else {
+                max_rad
+            },
+        ),
         KinematicsError::DepthOutOfRange {
             depth_m,
             min_m,
@@ -127,7 +140,10 @@ impl Servo for CoreServo {
             .arm
             .sensor_from_joints(q)
             .map_err(|e| kinematic_fault(&e, now_s))?;
-        let depth_m = self.arm.depth_m(q).map_err(|e| kinematic_fault(&e, now_s))?;
+        let depth_m = self
+            .arm
+            .depth_m(q)
+            .map_err(|e| kinematic_fault(&e, now_s))?;
         Ok(SensorPose {
             centre: SurfacePoint::new(p.x, p.z),
             depth_m,
@@ -171,9 +187,10 @@ impl Servo for CoreServo {
     }
 
     fn step(&mut self, now_s: f64, state: &JointState, dt_s: f64) -> Result<ServoStep, Fault> {
-        let (p, v) = self.planner.setpoint(now_s).ok_or_else(|| {
-            Fault::new(FaultKind::Kinematics, now_s).noting("no motion setpoint")
-        })?;
+        let (p, v) = self
+            .planner
+            .setpoint(now_s)
+            .ok_or_else(|| Fault::new(FaultKind::Kinematics, now_s).noting("no motion setpoint"))?;
         let js = self
             .arm
             .joint_setpoint(&p, &v)

@@ -88,7 +88,16 @@ fn make_real_time(p: &Pacing) {
             "mlockall refused ({e}); the loop may page-fault (needs CAP_IPC_LOCK or LimitMEMLOCK)"
         );
     }
-    if let Some(prio) = p.fifo_priority
+    // A loop paced faster than every 200 µs runs a simulation faster than real time: it
+    // has no deadline worth a real-time priority, and at SCHED_FIFO it would starve the
+    // rest of the machine.
+    if p.fifo_priority.is_some() && p.period_ns() < 200_000 {
+        tracing::info!(
+            "loop period {} us (time scale {}): not asking for SCHED_FIFO",
+            p.period_ns() / 1000,
+            p.time_scale
+        );
+    } else if let Some(prio) = p.fifo_priority
         && let Err(e) = os::set_fifo_priority(prio)
     {
         tracing::warn!(
