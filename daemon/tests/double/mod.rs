@@ -58,7 +58,7 @@ impl ArmPort for FakeArm {
         }
         self.t_s += DT;
         self.steps += 1;
-        if self.steps % 10 == 0 {
+        if self.steps.is_multiple_of(10) {
             self.seq += 1;
             let _ = self.frames.try_send(TactileFrame {
                 t_s: self.t_s,
