@@ -22,7 +22,7 @@ pub trait ArmPort: Send {
     /// start on the rig. Every timestamp in the daemon is on this clock.
     fn now_s(&self) -> f64;
     /// What the simulator knows and the robot does not (None on the rig).
-    fn truth(&self) -> Option<Truth> {
+    fn truth(&mut self) -> Option<Truth> {
         None
     }
 }

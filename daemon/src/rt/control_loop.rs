@@ -93,7 +93,7 @@ impl ControlLoop {
         self.arm.now_s()
     }
 
-    pub fn truth(&self) -> Option<crate::backend::Truth> {
+    pub fn truth(&mut self) -> Option<crate::backend::Truth> {
         self.arm.truth()
     }
 
