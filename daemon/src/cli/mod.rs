@@ -2,6 +2,7 @@
 
 mod check_config;
 pub mod console;
+mod demo;
 
 use std::process::ExitCode;
 
@@ -23,6 +24,9 @@ enum Command {
     /// Check a configuration or scene file and report every problem with file, line and field.
     CheckConfig(check_config::Args),
     /// Talk to the running daemon over its console socket.
+    /// Run a whole seeded tracking trial on the simulator through the real daemon and
+    /// console; print the summary and write plots.
+    Demo(demo::Args),
     #[command(flatten)]
     Console(console::Verb),
 }
@@ -31,6 +35,7 @@ pub fn run() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::CheckConfig(args) => check_config::run(&args),
+        Command::Demo(args) => demo::run(&args),
         Command::Console(verb) => console::run(&verb),
     }
 }
