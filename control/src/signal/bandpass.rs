@@ -78,7 +78,7 @@ impl BandPass {
             high_hz,
             sample_rate_hz: fs,
         } = spec;
-        if order < 2 || order % 2 != 0 {
+        if order < 2 || !order.is_multiple_of(2) {
             return Err(FilterDesignError::BadOrder(order));
         }
         if !(fs.is_finite() && fs > 0.0) {

@@ -85,7 +85,7 @@ pub fn detect_pulse(
     let (lo, hi) = min_max(series).ok_or(NoPulse::Flat)?;
     // A swing lost in rounding is flat: nothing can be over a threshold inside it.
     let scale = lo.abs().max(hi.abs());
-    if !(swing > 64.0 * f64::EPSILON * scale) {
+    if swing <= 64.0 * f64::EPSILON * scale {
         return Err(NoPulse::Flat);
     }
     let threshold = lo + settings.threshold_fraction * swing;

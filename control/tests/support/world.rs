@@ -14,16 +14,22 @@ use control::types::{ELEMENTS, TactileFrame};
 
 use super::synth::Rng;
 
-/// The artery's course: a polyline from its first vertex.
+/// The artery's course, from its start: a polyline, or a circular arc.
 #[derive(Debug, Clone)]
-pub struct ArteryPath {
-    vertices: Vec<SurfacePoint>,
+pub enum ArteryPath {
+    Polyline {
+        vertices: Vec<SurfacePoint>,
+        length_m: f64,
+    },
+    /// From the origin heading +x, turning toward +z.
+    Arc { radius_m: f64, length_m: f64 },
 }
 
 impl ArteryPath {
     pub fn polyline(vertices: Vec<SurfacePoint>) -> Self {
         assert!(vertices.len() >= 2);
-        Self { vertices }
+        let length_m = vertices.windows(2).map(|w| w[0].distance_to(&w[1])).sum();
+        Self::Polyline { vertices, length_m }
     }
 
     /// Straight from `start` along `heading_rad` (from +x toward +z) for `length_m`.
@@ -35,59 +41,80 @@ impl ArteryPath {
         Self::polyline(vec![start, end])
     }
 
-    /// A circular arc from the origin heading +x, turning toward +z, as a fine polyline.
+    /// A circular arc from the origin heading +x, turning toward +z.
     pub fn arc(radius_m: f64, length_m: f64) -> Self {
-        let n = (length_m / 0.0005).ceil() as usize;
-        let vertices = (0..=n)
-            .map(|k| {
-                let a = length_m * k as f64 / n as f64 / radius_m;
-                SurfacePoint::new(radius_m * a.sin(), radius_m * (1.0 - a.cos()))
-            })
-            .collect();
-        Self::polyline(vertices)
+        Self::Arc { radius_m, length_m }
     }
 
-    /// Distance from `p` to the path and the arc length at the nearest point.
+    /// Distance from `p` to the path and the arc length at the nearest point (clamped to
+    /// the ends).
     pub fn nearest(&self, p: &SurfacePoint) -> (f64, f64) {
-        let mut best = (f64::INFINITY, 0.0);
-        let mut s0 = 0.0;
-        for w in self.vertices.windows(2) {
-            let (a, b) = (w[0], w[1]);
-            let (dx, dz) = (b.x_m - a.x_m, b.z_m - a.z_m);
-            let len = dx.hypot(dz);
-            let u = (((p.x_m - a.x_m) * dx + (p.z_m - a.z_m) * dz) / (len * len)).clamp(0.0, 1.0);
-            let foot = SurfacePoint::new(a.x_m + u * dx, a.z_m + u * dz);
-            let d = foot.distance_to(p);
-            if d < best.0 {
-                best = (d, s0 + u * len);
+        match self {
+            Self::Polyline { vertices, .. } => {
+                let mut best = (f64::INFINITY, 0.0);
+                let mut s0 = 0.0;
+                for w in vertices.windows(2) {
+                    let (a, b) = (w[0], w[1]);
+                    let (dx, dz) = (b.x_m - a.x_m, b.z_m - a.z_m);
+                    let len = dx.hypot(dz);
+                    let u = (((p.x_m - a.x_m) * dx + (p.z_m - a.z_m) * dz) / (len * len))
+                        .clamp(0.0, 1.0);
+                    let foot = SurfacePoint::new(a.x_m + u * dx, a.z_m + u * dz);
+                    let d = foot.distance_to(p);
+                    if d < best.0 {
+                        best = (d, s0 + u * len);
+                    }
+                    s0 += len;
+                }
+                best
             }
-            s0 += len;
+            &Self::Arc { radius_m, length_m } => {
+                // Centre at (0, R); the start is at angle -π/2 from it.
+                let (dx, dz) = (p.x_m, p.z_m - radius_m);
+                let angle = dz.atan2(dx) + std::f64::consts::FRAC_PI_2;
+                let angle = angle.rem_euclid(2.0 * std::f64::consts::PI);
+                let s = (angle * radius_m).min(length_m);
+                let s = if angle * radius_m
+                    > length_m + (2.0 * std::f64::consts::PI * radius_m - length_m) / 2.0
+                {
+                    0.0
+                } else {
+                    s
+                };
+                (self.at(s).distance_to(p), s)
+            }
         }
-        best
     }
 
     pub fn length_m(&self) -> f64 {
-        self.vertices
-            .windows(2)
-            .map(|w| w[0].distance_to(&w[1]))
-            .sum()
+        match self {
+            Self::Polyline { length_m, .. } | Self::Arc { length_m, .. } => *length_m,
+        }
     }
 
     /// The point at arc length `s`.
     pub fn at(&self, s: f64) -> SurfacePoint {
-        let mut left = s;
-        for w in self.vertices.windows(2) {
-            let len = w[0].distance_to(&w[1]);
-            if left <= len {
-                let u = left / len;
-                return SurfacePoint::new(
-                    w[0].x_m + u * (w[1].x_m - w[0].x_m),
-                    w[0].z_m + u * (w[1].z_m - w[0].z_m),
-                );
+        match self {
+            Self::Polyline { vertices, .. } => {
+                let mut left = s;
+                for w in vertices.windows(2) {
+                    let len = w[0].distance_to(&w[1]);
+                    if left <= len {
+                        let u = left / len;
+                        return SurfacePoint::new(
+                            w[0].x_m + u * (w[1].x_m - w[0].x_m),
+                            w[0].z_m + u * (w[1].z_m - w[0].z_m),
+                        );
+                    }
+                    left -= len;
+                }
+                *vertices.last().expect("at least two vertices")
             }
-            left -= len;
+            &Self::Arc { radius_m, .. } => {
+                let a = s / radius_m;
+                SurfacePoint::new(radius_m * a.sin(), radius_m * (1.0 - a.cos()))
+            }
         }
-        *self.vertices.last().expect("at least two vertices")
     }
 }
 
@@ -215,10 +242,10 @@ impl Mover {
     }
 
     pub fn command(&mut self, motion: &MotionCommand) {
-        if let MotionCommand::MoveTo { target, speed_m_s } = *motion {
-            if target.distance_to(&self.position) > 0.0 {
-                self.target = Some((target, speed_m_s));
-            }
+        if let MotionCommand::MoveTo { target, speed_m_s } = *motion
+            && target.distance_to(&self.position) > 0.0
+        {
+            self.target = Some((target, speed_m_s));
         }
     }
 
@@ -242,16 +269,26 @@ impl Mover {
     }
 }
 
+/// What a run saw.
+#[derive(Debug, Clone, Default)]
+pub struct Trace {
+    /// Every event, in order.
+    pub events: Vec<TrackerEvent>,
+    /// Every distinct `MoveTo` target, in the order first commanded.
+    pub targets: Vec<SurfacePoint>,
+    /// Frames stepped.
+    pub frames: usize,
+}
+
 /// Drive a tracker in the world until `until` accepts an event or `max_frames` pass.
-/// Returns every event seen, in order.
 pub fn run(
     tracker: &mut dyn Tracker,
     world: &mut World,
     mover: &mut Mover,
     max_frames: usize,
     mut until: impl FnMut(&TrackerEvent) -> bool,
-) -> Vec<TrackerEvent> {
-    let mut events = Vec::new();
+) -> Trace {
+    let mut trace = Trace::default();
     let dt = world.geometry.dt_s();
     for _ in 0..max_frames {
         let frame = world.frame(&mover.position);
@@ -260,14 +297,20 @@ pub fn run(
             sensor: mover.position,
             settled: mover.settled(),
         });
+        trace.frames += 1;
+        if let MotionCommand::MoveTo { target, .. } = out.motion
+            && trace.targets.last() != Some(&target)
+        {
+            trace.targets.push(target);
+        }
         mover.command(&out.motion);
         mover.advance(dt);
         if let Some(e) = out.event {
-            events.push(e);
+            trace.events.push(e);
             if until(&e) {
                 break;
             }
         }
     }
-    events
+    trace
 }
