@@ -67,6 +67,7 @@ impl ArmPort for Plant {
         // Powered: torque against gravity; unpowered: the arm is held (resting on tissue).
         if self.enabled {
             let g = self.gravity.torque_nm(&self.q);
+            #[allow(clippy::needless_range_loop)]
             for i in 0..3 {
                 let inertia = 0.01;
                 let acc = (t.torque_nm[i] - g[i] - 0.02 * self.qd[i]) / inertia;
