@@ -264,13 +264,22 @@ impl Supervisor {
         }
     }
 
+    /// Record into the open trial. Streamed samples may be dropped when the recorder lags
+    /// (`try_send`); everything else waits for room, so that nothing later acknowledged as
+    /// durable can be missing from the file.
     fn record(&self, topic: Topic, t_s: f64, v: &Value) {
-        if self.trial.is_some() {
-            let _ = self.links.recorder.try_send(RecorderMsg::Write {
-                topic,
-                t_s,
-                json: v.to_string().into_bytes(),
-            });
+        if self.trial.is_none() {
+            return;
+        }
+        let msg = RecorderMsg::Write {
+            topic,
+            t_s,
+            json: v.to_string().into_bytes(),
+        };
+        if matches!(topic, Topic::Events) {
+            let _ = self.links.recorder.send(msg);
+        } else {
+            let _ = self.links.recorder.try_send(msg);
         }
     }
 
