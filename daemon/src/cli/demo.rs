@@ -212,20 +212,18 @@ fn wait_live(c: &mut Client) -> Result<Value, String> {
     }
 }
 
+/// Wait until the daemon reports `want` (polling status: state events queued before the
+/// last request would be stale), failing on a fault.
 fn wait_state(c: &mut Client, want: &str) -> Result<(), String> {
     let deadline = Instant::now() + Duration::from_secs(300);
     loop {
-        if let Some(e) = c
-            .next_event(Duration::from_millis(200))
+        while let Some(e) = c
+            .next_event(Duration::from_millis(50))
             .map_err(|e| e.to_string())?
         {
             if e["event"] == "fault" {
                 return Err(describe_event(&e).unwrap_or_default());
             }
-            if e["event"] == "state" && e["state"] == want {
-                return Ok(());
-            }
-            continue;
         }
         let s = c.call("status", json!({}), T).map_err(|e| e.to_string())?;
         if s["state"] == want {

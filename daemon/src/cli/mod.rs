@@ -23,7 +23,6 @@ struct Cli {
 enum Command {
     /// Check a configuration or scene file and report every problem with file, line and field.
     CheckConfig(check_config::Args),
-    /// Talk to the running daemon over its console socket.
     /// Run a whole seeded tracking trial on the simulator through the real daemon and
     /// console; print the summary and write plots.
     Demo(demo::Args),
