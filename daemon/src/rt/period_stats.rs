@@ -18,8 +18,14 @@ pub struct PeriodSummary {
     pub max_us: f64,
     /// Cycles whose work ended after the next deadline.
     pub overruns: u64,
-    /// Deadlines skipped altogether because a cycle ran over by more than a period.
+    /// Deadlines skipped altogether because a cycle ran over by more than a period (in
+    /// batched pacing: control cycles of simulated time that could not be run in time).
     pub skipped: u64,
+    /// Batched pacing (a simulation faster than real time): the period is that of the
+    /// batches, not of single cycles.
+    pub batched: bool,
+    /// Daemon-clock seconds run per wall second since the loop started.
+    pub achieved_time_scale: f64,
 }
 
 #[derive(Debug, Clone)]
@@ -88,6 +94,8 @@ impl PeriodStats {
             max_us: self.max_ns as f64 / 1000.0,
             overruns: self.overruns,
             skipped: self.skipped,
+            batched: false,
+            achieved_time_scale: 0.0,
         }
     }
 }

@@ -19,9 +19,7 @@ use crossbeam_channel::{Receiver, Sender, select, tick};
 use serde_json::{Value, json};
 
 use control::frames::SurfacePoint;
-use control::tracker::{
-    MotionCommand, TrackLimit, Tracker, TrackerEvent, TrackerInput, TrackerPhase,
-};
+use control::tracker::{MotionCommand, TrackLimit, Tracker, TrackerEvent, TrackerInput};
 
 use crate::backend::{BackendInfo, PathJudge, Truth};
 use crate::console::hub::{Responder, StreamEvent};
@@ -616,17 +614,27 @@ impl Supervisor {
             ControlEvent::Faulted(f) => self.on_fault(f),
             ControlEvent::Timing { summary, .. } => {
                 if summary.overruns > self.overruns_reported {
-                    tracing::warn!(
-                        "control loop: {} overruns so far ({} new), {} deadlines skipped; period p50 {:.0} us, p99 {:.0} us, p99.9 {:.0} us, max {:.0} us over {} cycles",
-                        summary.overruns,
-                        summary.overruns - self.overruns_reported,
-                        summary.skipped,
-                        summary.p50_us,
-                        summary.p99_us,
-                        summary.p999_us,
-                        summary.max_us,
-                        summary.cycles
-                    );
+                    let new = summary.overruns - self.overruns_reported;
+                    if summary.batched {
+                        tracing::warn!(
+                            "simulation slower than asked: {:.1}x real time instead of {}x ({} of its 1 ms batches fell behind, {new} new; {} control cycles of simulated time not run)",
+                            summary.achieved_time_scale,
+                            self.info.time_scale,
+                            summary.overruns,
+                            summary.skipped
+                        );
+                    } else {
+                        tracing::warn!(
+                            "control loop: {} overruns so far ({new} new), {} deadlines skipped; period p50 {:.0} us, p99 {:.0} us, p99.9 {:.0} us, max {:.0} us over {} cycles",
+                            summary.overruns,
+                            summary.skipped,
+                            summary.p50_us,
+                            summary.p99_us,
+                            summary.p999_us,
+                            summary.max_us,
+                            summary.cycles
+                        );
+                    }
                     self.overruns_reported = summary.overruns;
                 }
                 self.timing = Some(summary);
@@ -786,7 +794,10 @@ impl Supervisor {
         if self.state == OpState::Moving && settled {
             self.set_state(OpState::Holding);
         }
-        if !matches!(self.state, OpState::Seeding | OpState::Tracking) {
+        // The tracker sees every frame of its trial (it may still owe events from an
+        // acquisition that just ended) except while paused: there the arm holds for the
+        // operator, and `settled` would wrongly vouch for the tracker's interrupted move.
+        if self.state == OpState::Paused {
             return;
         }
         let Some(tracker) = self.tracker.as_mut() else {
@@ -797,13 +808,18 @@ impl Supervisor {
             sensor: f.sensor,
             settled,
         });
-        let phase = tracker.phase();
         if let Some(e) = out.event {
             self.on_tracker_event(e);
         }
         match self.state {
             OpState::Seeding => {
-                if matches!(phase, TrackerPhase::Seeding { .. }) {
+                // The mark is over when its result (located or missed) has been reported,
+                // which may be a frame or more after the tracker's phase went back.
+                let result = matches!(
+                    out.event,
+                    Some(TrackerEvent::Located(_) | TrackerEvent::Missed { .. })
+                );
+                if result {
                     self.set_state(OpState::Holding);
                 }
             }
