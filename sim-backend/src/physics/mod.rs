@@ -1,0 +1,4 @@
+//! The physics of the bench: what the sensor feels and how the arm, rod and tissue move.
+
+pub mod kernel;
+pub mod tactile;
