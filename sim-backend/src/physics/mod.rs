@@ -2,3 +2,6 @@
 
 pub mod kernel;
 pub mod tactile;
+pub mod contact;
+pub mod joints;
+pub mod rod;
