@@ -44,7 +44,9 @@ pub struct Scene {
     pub robot: Option<RobotSpec>,
     #[serde(default)]
     pub faults: Option<FaultSpec>,
-    /// The surgeon's two manual placements of the sensor centre, tissue frame.
+    /// The surgeon's two manual placements of the sensor centre, tissue frame, written as a
+    /// list of two points.
+    #[serde(deserialize_with = "two_points")]
     pub placements: [SurfacePoint; 2],
     /// How much artery to follow, and why that much.
     pub track: TrackSpec,
@@ -219,9 +221,6 @@ pub struct RobotSpec {
     pub coulomb_friction_nm: [f64; 3],
     /// Viscous friction at each joint, N·m·s/rad.
     pub viscous_friction_nm_s: [f64; 3],
-    /// Unbalanced link moments: gravity torque at joint 2 is `-g2 cos θ2`, at joint 3
-    /// `-g3 sin θ3`, N·m (the Phantom is partly counterbalanced by its motors).
-    pub gravity_moment_nm: [f64; 2],
     /// Encoder counts per motor revolution.
     pub encoder_counts_per_rev: f64,
     /// Capstan reduction per joint.
@@ -239,7 +238,6 @@ impl Default for RobotSpec {
             joint_inertia_kg_m2: [0.0040, 0.0035, 0.0025],
             coulomb_friction_nm: [0.012, 0.010, 0.010],
             viscous_friction_nm_s: [0.002, 0.002, 0.002],
-            gravity_moment_nm: [0.05, 0.03],
             encoder_counts_per_rev: 1024.0,
             capstan_ratio: [13.3, 11.2, 11.2],
             velocity_filter_s: 0.005,
@@ -275,4 +273,12 @@ pub struct TrackSpec {
     pub length_m: f64,
     /// Why this length (e.g. where the artery turns too far toward the element line).
     pub reason: String,
+}
+
+fn two_points<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[SurfacePoint; 2], D::Error> {
+    let points = Vec::<SurfacePoint>::deserialize(d)?;
+    let n = points.len();
+    <[SurfacePoint; 2]>::try_from(points).map_err(|_| {
+        serde::de::Error::custom(format!("expected exactly two placements, got {n}"))
+    })
 }

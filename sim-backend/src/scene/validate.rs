@@ -322,14 +322,6 @@ impl Validate for RobotSpec {
                 100.0,
             );
         }
-        for i in 0..2 {
-            v.in_range(
-                &format!("gravity_moment_nm[{i}]"),
-                self.gravity_moment_nm[i],
-                -10.0,
-                10.0,
-            );
-        }
         v.in_range(
             "encoder_counts_per_rev",
             self.encoder_counts_per_rev,
