@@ -11,3 +11,4 @@
 pub mod physics;
 pub mod random;
 pub mod scene;
+pub mod trial;
