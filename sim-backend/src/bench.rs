@@ -112,7 +112,8 @@ impl Bench {
             scene: scene.name.clone(),
             message,
         };
-        let path = ArteryPath::from_spec(&scene.artery.path).map_err(|e| scene_err(e.to_string()))?;
+        let path =
+            ArteryPath::from_spec(&scene.artery.path).map_err(|e| scene_err(e.to_string()))?;
         let tactile = TactileModel::new(
             path,
             &scene.artery,
@@ -384,7 +385,7 @@ impl DynamicArm {
         let limits = config.robot.joint_limits;
         // Mechanical stops a little outside the configured software limits.
         let stops = [0, 1, 2].map(|i| (limits.min_rad[i] - 0.05, limits.max_rad[i] + 0.05));
-        let masses = spec.masses.unwrap_or_default();
+        let masses = spec.masses.unwrap_or(config.robot.link_masses);
         let mut arm = Self {
             geometry,
             pivot: Point3::from(pivot_geometry.pivot_in_base_m),
@@ -456,8 +457,8 @@ impl DynamicArm {
             self.sensor = SurfacePoint::new(sol.position[0], sol.position[1]);
             self.rigid_sensor = SurfacePoint::new(rigid[0], rigid[1]);
             self.height_m = rigid_tissue.y;
-            let tip_force = base_from_tissue
-                * Vector3::new(sol.friction_n[0], sol.normal_n, sol.friction_n[1]);
+            let tip_force =
+                base_from_tissue * Vector3::new(sol.friction_n[0], sol.normal_n, sol.friction_n[1]);
             let f_gimbal = self.rod.gimbal_force(&geom, &tip_force);
             let rod_tau = jac.transpose() * f_gimbal;
             for i in 0..3 {

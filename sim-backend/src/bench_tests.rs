@@ -1,7 +1,6 @@
 use super::*;
 use control::motion::MotionPlanner;
 use control::pd::PdController;
-use control::pd::gravity::PhantomMasses;
 use control::types::JointSetpoint;
 
 fn sim_config() -> config::Config {
@@ -25,11 +24,17 @@ impl Driver {
     fn new(config: &config::Config) -> Self {
         let r = &config.robot;
         Self {
-            model: ArmModel::new(r.phantom, r.joint_limits, r.pivot, r.tissue, r.sensor_offset_m)
-                .unwrap(),
+            model: ArmModel::new(
+                r.phantom,
+                r.joint_limits,
+                r.pivot,
+                r.tissue,
+                r.sensor_offset_m,
+            )
+            .unwrap(),
             pd: PdController::new(config.control.pd).unwrap(),
             planner: MotionPlanner::new(config.control.motion).unwrap(),
-            gravity: PhantomGravity::new(&PhantomMasses::default()),
+            gravity: PhantomGravity::new(&config.robot.link_masses),
         }
     }
 
@@ -179,7 +184,12 @@ fn frames_come_every_ten_milliseconds_with_noise_of_the_scene() {
     // Static load plus noise: the SD over time of each element is the noise SD.
     let e = 3;
     let mean = frames.iter().map(|f| f.force_n[e]).sum::<f64>() / 200.0;
-    let sd = (frames.iter().map(|f| (f.force_n[e] - mean).powi(2)).sum::<f64>() / 199.0).sqrt();
+    let sd = (frames
+        .iter()
+        .map(|f| (f.force_n[e] - mean).powi(2))
+        .sum::<f64>()
+        / 199.0)
+        .sqrt();
     assert!((sd - 0.012).abs() < 0.003, "{sd}");
 }
 

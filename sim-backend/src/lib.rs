@@ -8,7 +8,14 @@
 //! - [`rig`]: the simulated bench behind control's ports, for the daemon;
 //! - [`runner`]: the lockstep runner behind `pulsetrack sim` and the benchmarks.
 
+pub mod bench;
+pub mod error;
 pub mod physics;
 pub mod random;
+pub mod rig;
+// runner: wired in once control's tracker lands.
+
 pub mod scene;
 pub mod trial;
+
+pub use error::SimError;

@@ -14,7 +14,7 @@ use control::frames::SurfacePoint;
 use control::kinematics::ArmModel;
 use control::motion::MotionPlanner;
 use control::pd::PdController;
-use control::pd::gravity::{GravityModel, PhantomGravity, PhantomMasses};
+use control::pd::gravity::{GravityModel, PhantomGravity};
 use control::tracker::{
     EndReason, MotionCommand, TrackLimit, Tracker, TrackerEvent, TrackerInput, TrackerPhase,
 };
@@ -83,6 +83,7 @@ struct Lockstep {
     recording_first: bool,
     sensor_track: Vec<(f64, SurfacePoint, SurfacePoint)>,
     next_track_sample_s: f64,
+    log: Vec<String>,
 }
 
 impl Lockstep {
@@ -117,7 +118,7 @@ impl Lockstep {
             model,
             pd,
             planner,
-            gravity: PhantomGravity::new(&PhantomMasses::default()),
+            gravity: PhantomGravity::new(&config.robot.link_masses),
             tracker,
             rest_setpoint: None,
             believed: Point3::origin(),
@@ -130,6 +131,7 @@ impl Lockstep {
             recording_first: false,
             sensor_track: Vec::new(),
             next_track_sample_s: 0.0,
+            log: Vec::new(),
         };
         lockstep.update_belief()?;
         Ok(lockstep)
@@ -338,6 +340,18 @@ impl Lockstep {
             }
         }
         if let Some(ev) = out.event {
+            let truth = self.bench.truth();
+            let off = self.bench.path().nearest(truth.sensor);
+            self.log.push(format!(
+                "{:8.2} s  believed ({:7.2}, {:7.2}) mm  true ({:7.2}, {:7.2}) mm  {:5.2} mm off the artery at {:5.1} mm  {ev:?}",
+                self.now(),
+                self.believed.x * 1e3,
+                self.believed.z * 1e3,
+                truth.sensor.x_m * 1e3,
+                truth.sensor.z_m * 1e3,
+                off.offset_m * 1e3,
+                off.s_m * 1e3,
+            ));
             match ev {
                 TrackerEvent::Located(p) => {
                     let truth = self.bench.truth();
@@ -371,11 +385,9 @@ impl Lockstep {
                 match self.feed(&frame)? {
                     Some(TrackerEvent::Located(p)) if p.seed => return Ok(true),
                     Some(TrackerEvent::Missed { .. }) => break,
+                    // Done marking and nothing left to report: the mark found nothing.
+                    None if !matches!(self.tracker.phase(), TrackerPhase::Marking) => break,
                     _ => {}
-                }
-                if !matches!(self.tracker.phase(), TrackerPhase::Marking) {
-                    // The tracker left marking without an event for it: take its word.
-                    break;
                 }
             }
         }
@@ -438,6 +450,7 @@ impl Lockstep {
             wall_s: 0.0,
             first_acquisition: std::mem::take(&mut self.first_acquisition),
             sensor_track: std::mem::take(&mut self.sensor_track),
+            log: std::mem::take(&mut self.log),
         })
     }
 

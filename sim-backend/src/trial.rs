@@ -105,6 +105,9 @@ pub struct TrialResult {
     /// The sensor every 100 ms: (t, believed, true), for plots.
     #[serde(skip)]
     pub sensor_track: Vec<(f64, SurfacePoint, SurfacePoint)>,
+    /// Every tracker event with the true sensor position, one line each, for diagnosis.
+    #[serde(skip)]
+    pub log: Vec<String>,
 }
 
 impl TrialResult {
@@ -139,7 +142,12 @@ impl TrialsSummary {
     pub fn of(trials: &[TrialResult]) -> Self {
         let errors: Vec<f64> = trials
             .iter()
-            .flat_map(|t| t.located.iter().filter(|p| !p.seed).map(|p| p.lateral_error_m))
+            .flat_map(|t| {
+                t.located
+                    .iter()
+                    .filter(|p| !p.seed)
+                    .map(|p| p.lateral_error_m)
+            })
             .collect();
         let pooled = LateralError::of(&errors);
         let n = trials.len().max(1) as f64;

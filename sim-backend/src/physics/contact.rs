@@ -103,16 +103,19 @@ impl TissueContact {
         let indentation = (-height_m).max(0.0);
         let rate = (indentation - state.previous_indentation_m) / dt_s;
         state.previous_indentation_m = indentation;
-        let rigid_rate = state
-            .previous_rigid
-            .map_or([0.0; 2], |p| [(rigid[0] - p[0]) / dt_s, (rigid[1] - p[1]) / dt_s]);
+        let rigid_rate = state.previous_rigid.map_or([0.0; 2], |p| {
+            [(rigid[0] - p[0]) / dt_s, (rigid[1] - p[1]) / dt_s]
+        });
         state.previous_rigid = Some(rigid);
         let normal = if indentation > 0.0 {
             (self.stiffness * indentation + self.damping * rate).max(0.0)
         } else {
             0.0
         };
-        let free = [rigid[0] + compliance * other[0], rigid[1] + compliance * other[1]];
+        let free = [
+            rigid[0] + compliance * other[0],
+            rigid[1] + compliance * other[1],
+        ];
         let (Some(f), true) = (self.friction, normal > 0.0) else {
             // No friction, or not touching: the sensor is where the loads put it and the
             // surface will stick wherever it next touches.

@@ -69,7 +69,11 @@ impl JointDynamics {
         let qdd = m.lu().solve(&rhs).unwrap_or_else(Vector3::zeros);
         for i in 0..3 {
             let before = self.qd[i];
-            let mut after = if stuck[i] { 0.0 } else { before + qdd[i] * dt_s };
+            let mut after = if stuck[i] {
+                0.0
+            } else {
+                before + qdd[i] * dt_s
+            };
             // Friction can stop a joint but never reverse it within a step.
             if !stuck[i] && before != 0.0 && after.signum() != before.signum() {
                 let driving = tau[i] - self.viscous[i] * after;
@@ -176,7 +180,11 @@ mod tests {
         }
         // ω = τ t / I after 0.1 s.
         let expect = 0.01 * 0.1 / s.joint_inertia_kg_m2[0];
-        assert!((j.qd[0] - expect).abs() < 1e-9 * expect.max(1.0), "{:?}", j.qd);
+        assert!(
+            (j.qd[0] - expect).abs() < 1e-9 * expect.max(1.0),
+            "{:?}",
+            j.qd
+        );
         assert_eq!(j.qd[1], 0.0);
     }
 
@@ -185,14 +193,21 @@ mod tests {
         let s = spec();
         let mut j = JointDynamics::new(&s, [0.0; 3], [(-3.0, 3.0); 3]);
         for _ in 0..1000 {
-            j.step(&[0.5 * s.coulomb_friction_nm[0], 0.0, 0.0], &Matrix3::zeros(), 1e-3);
+            j.step(
+                &[0.5 * s.coulomb_friction_nm[0], 0.0, 0.0],
+                &Matrix3::zeros(),
+                1e-3,
+            );
         }
         assert_eq!(j.q[0], 0.0);
         j.qd = [1.0, 0.0, 0.0];
         for _ in 0..5000 {
             j.step(&[0.0; 3], &Matrix3::zeros(), 1e-3);
         }
-        assert_eq!(j.qd[0], 0.0, "friction stops a coasting joint and does not reverse it");
+        assert_eq!(
+            j.qd[0], 0.0,
+            "friction stops a coasting joint and does not reverse it"
+        );
     }
 
     #[test]

@@ -71,8 +71,7 @@ pub fn rectangle_integral(u0: f64, ga: f64, gb: f64, half_a: f64, half_b: f64, h
     for (x, w) in GL_NODES.iter().zip(GL_WEIGHTS) {
         let t = x * half_slow;
         let u = u0 + g_slow * t;
-        let inner =
-            (g(u + g_fast * half_fast, h) - g(u - g_fast * half_fast, h)) / g_fast;
+        let inner = (g(u + g_fast * half_fast, h) - g(u - g_fast * half_fast, h)) / g_fast;
         sum += w * inner;
     }
     sum * half_slow

@@ -85,7 +85,7 @@ impl Rod {
     pub fn rigid(&self, g: &Point3<f64>, p: &Point3<f64>) -> Option<RodGeometry> {
         let gp = p - g;
         let a = gp.norm();
-        if !(a > 1e-6) {
+        if a.is_nan() || a <= 1e-6 {
             return None;
         }
         let u = gp / a;

@@ -16,7 +16,7 @@ use control::frames::SurfacePoint;
 use control::types::ELEMENTS;
 
 use super::kernel::{rectangle_integral, strength_n};
-use crate::scene::{ArterySpec, ArteryPath, LumpSpec, SensorSpec};
+use crate::scene::{ArteryPath, ArterySpec, LumpSpec, SensorSpec};
 
 /// The array as it really is (the robot's belief is the configuration's `sensor`).
 #[derive(Debug, Clone)]
@@ -194,8 +194,7 @@ impl TactileModel {
         let mut out = [0.0; ELEMENTS];
         for (i, f) in out.iter_mut().enumerate() {
             // The tissue can push but not pull: a strong negative flank lifts the element off.
-            *f = (contact.normal_n * shapes.static_share[i]
-                + pulse_pa * shapes.pulse_n_per_pa[i])
+            *f = (contact.normal_n * shapes.static_share[i] + pulse_pa * shapes.pulse_n_per_pa[i])
                 .max(0.0);
         }
         out
@@ -329,8 +328,18 @@ mod tests {
             turn: Turn::Left,
         });
         for i in 0..200 {
-            let c = SurfacePoint::new(-0.1 + i as f64 * 0.001, -0.08 + (i as f64 * 0.37).sin() * 0.05);
-            let f = m.forces(c, Contact { normal_n: 2.9, indentation_m: 0.003 }, 100e3);
+            let c = SurfacePoint::new(
+                -0.1 + i as f64 * 0.001,
+                -0.08 + (i as f64 * 0.37).sin() * 0.05,
+            );
+            let f = m.forces(
+                c,
+                Contact {
+                    normal_n: 2.9,
+                    indentation_m: 0.003,
+                },
+                100e3,
+            );
             assert!(f.iter().all(|v| v.is_finite() && *v >= 0.0), "{f:?}");
         }
     }
@@ -338,7 +347,14 @@ mod tests {
     #[test]
     fn lifted_off_sensor_feels_nothing() {
         let mut m = seed_tube(straight_along_x());
-        let f = m.forces(SurfacePoint::new(0.0, 0.0), Contact { normal_n: 0.0, indentation_m: 0.0 }, 100e3);
+        let f = m.forces(
+            SurfacePoint::new(0.0, 0.0),
+            Contact {
+                normal_n: 0.0,
+                indentation_m: 0.0,
+            },
+            100e3,
+        );
         assert_eq!(f, [0.0; ELEMENTS]);
     }
 }

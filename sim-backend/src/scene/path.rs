@@ -94,9 +94,7 @@ impl Piece {
     /// Point and heading at arc length `s` from the piece's start (unclamped for lines).
     fn at(&self, s: f64) -> ([f64; 2], f64) {
         match *self {
-            Piece::Line {
-                start, heading, ..
-            } => (
+            Piece::Line { start, heading, .. } => (
                 [start[0] + s * heading.cos(), start[1] + s * heading.sin()],
                 heading,
             ),
@@ -254,10 +252,15 @@ impl ArteryPath {
                 heading_rad,
                 length_m,
             } => {
-                if !(start.is_finite() && heading_rad.is_finite())
-                    || !(length_m.is_finite() && *length_m > 0.0)
+                if !(start.is_finite()
+                    && heading_rad.is_finite()
+                    && length_m.is_finite()
+                    && *length_m > 0.0)
                 {
-                    return bad("a straight path needs a finite start and heading and a positive length".into());
+                    return bad(
+                        "a straight path needs a finite start and heading and a positive length"
+                            .into(),
+                    );
                 }
                 Ok(Self::chain(
                     [start.x_m, start.z_m],
@@ -603,26 +606,37 @@ mod tests {
 
     #[test]
     fn bad_paths_are_errors() {
-        assert!(ArteryPath::from_spec(&PathSpec::Arc {
-            radius_m: 0.01,
-            length_m: 0.26,
-            chord_centre: SurfacePoint::default(),
-            turn: Turn::Left
-        })
-        .is_err());
-        assert!(ArteryPath::from_spec(&PathSpec::Polyline {
-            points: vec![SurfacePoint::new(0.0, 0.0)]
-        })
-        .is_err());
-        assert!(ArteryPath::from_spec(&PathSpec::Polyline {
-            points: vec![SurfacePoint::new(0.0, 0.0), SurfacePoint::new(0.0, 0.0)]
-        })
-        .is_err());
-        assert!(ArteryPath::from_spec(&PathSpec::Spline {
-            points: vec![SurfacePoint::new(0.0, f64::NAN), SurfacePoint::new(0.1, 0.0)],
-            sample_m: None
-        })
-        .is_err());
+        assert!(
+            ArteryPath::from_spec(&PathSpec::Arc {
+                radius_m: 0.01,
+                length_m: 0.26,
+                chord_centre: SurfacePoint::default(),
+                turn: Turn::Left
+            })
+            .is_err()
+        );
+        assert!(
+            ArteryPath::from_spec(&PathSpec::Polyline {
+                points: vec![SurfacePoint::new(0.0, 0.0)]
+            })
+            .is_err()
+        );
+        assert!(
+            ArteryPath::from_spec(&PathSpec::Polyline {
+                points: vec![SurfacePoint::new(0.0, 0.0), SurfacePoint::new(0.0, 0.0)]
+            })
+            .is_err()
+        );
+        assert!(
+            ArteryPath::from_spec(&PathSpec::Spline {
+                points: vec![
+                    SurfacePoint::new(0.0, f64::NAN),
+                    SurfacePoint::new(0.1, 0.0)
+                ],
+                sample_m: None
+            })
+            .is_err()
+        );
     }
 
     proptest! {

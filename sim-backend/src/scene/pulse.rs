@@ -103,8 +103,8 @@ impl PulseSource {
             } => {
                 let mean = 1.0 / heart_rate_hz;
                 // Keep intervals physiological: within ±40 % of the mean.
-                let period = (mean + interval_sd_s * standard_normal(rng))
-                    .clamp(0.6 * mean, 1.4 * mean);
+                let period =
+                    (mean + interval_sd_s * standard_normal(rng)).clamp(0.6 * mean, 1.4 * mean);
                 let amp = (systolic_pa - diastolic_pa)
                     * (1.0 + pressure_sd_fraction * standard_normal(rng)).clamp(0.5, 1.5);
                 Beat {
@@ -163,8 +163,8 @@ impl PulseSource {
                 if tb < open {
                     beat.amplitude_pa + (carry - beat.amplitude_pa) * (-tb / tau).exp()
                 } else {
-                    let at_close = beat.amplitude_pa
-                        + (carry - beat.amplitude_pa) * (-open / tau).exp();
+                    let at_close =
+                        beat.amplitude_pa + (carry - beat.amplitude_pa) * (-open / tau).exp();
                     at_close * (-(tb - open) / tau).exp()
                 }
             }
@@ -242,16 +242,22 @@ mod tests {
 
     #[test]
     fn physiological_shape_spans_zero_to_one() {
-        let samples: Vec<f64> = (0..1000).map(|i| physiological_shape(i as f64 / 1000.0)).collect();
+        let samples: Vec<f64> = (0..1000)
+            .map(|i| physiological_shape(i as f64 / 1000.0))
+            .collect();
         let max = samples.iter().cloned().fold(f64::MIN, f64::max);
         let min = samples.iter().cloned().fold(f64::MAX, f64::min);
         assert!((max - 1.0).abs() < 0.01, "peak {max}");
-        assert!(min >= 0.0 && min < 0.01, "trough {min}");
+        assert!((0.0..0.01).contains(&min), "trough {min}");
         // Continuous across the beat boundary.
         assert!((physiological_shape(0.0) - physiological_shape(0.9999)).abs() < 0.01);
         // The peak is in early systole.
         let i_max = samples.iter().position(|&v| v == max).unwrap();
-        assert!((100..250).contains(&i_max), "peak at phase {}", i_max as f64 / 1000.0);
+        assert!(
+            (100..250).contains(&i_max),
+            "peak at phase {}",
+            i_max as f64 / 1000.0
+        );
     }
 
     #[test]
@@ -265,7 +271,9 @@ mod tests {
         };
         let run = |seed| {
             let mut p = PulseSource::new(&spec, seed);
-            (0..3000).map(|i| p.pressure_pa(i as f64 * 0.01)).collect::<Vec<_>>()
+            (0..3000)
+                .map(|i| p.pressure_pa(i as f64 * 0.01))
+                .collect::<Vec<_>>()
         };
         assert_eq!(run(3), run(3));
         assert_ne!(run(3), run(4));

@@ -3,6 +3,7 @@
 
 use control::frames::SurfacePoint;
 use control::kinematics::PhantomGeometry;
+use control::pd::gravity::PhantomMasses;
 use serde::{Deserialize, Serialize};
 
 use super::path::PathSpec;
@@ -221,6 +222,9 @@ pub struct RobotSpec {
     pub coulomb_friction_nm: [f64; 3],
     /// Viscous friction at each joint, N·m·s/rad.
     pub viscous_friction_nm_s: [f64; 3],
+    /// The arm's moving bodies as gravity sees them; absent: the same as the controller's
+    /// gravity model believes (control's documented Phantom 1.5 values).
+    pub masses: Option<PhantomMasses>,
     /// Encoder counts per motor revolution.
     pub encoder_counts_per_rev: f64,
     /// Capstan reduction per joint.
@@ -238,6 +242,7 @@ impl Default for RobotSpec {
             joint_inertia_kg_m2: [0.0040, 0.0035, 0.0025],
             coulomb_friction_nm: [0.012, 0.010, 0.010],
             viscous_friction_nm_s: [0.002, 0.002, 0.002],
+            masses: None,
             encoder_counts_per_rev: 1024.0,
             capstan_ratio: [13.3, 11.2, 11.2],
             velocity_filter_s: 0.005,
@@ -278,7 +283,6 @@ pub struct TrackSpec {
 fn two_points<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[SurfacePoint; 2], D::Error> {
     let points = Vec::<SurfacePoint>::deserialize(d)?;
     let n = points.len();
-    <[SurfacePoint; 2]>::try_from(points).map_err(|_| {
-        serde::de::Error::custom(format!("expected exactly two placements, got {n}"))
-    })
+    <[SurfacePoint; 2]>::try_from(points)
+        .map_err(|_| serde::de::Error::custom(format!("expected exactly two placements, got {n}")))
 }

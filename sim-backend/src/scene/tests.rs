@@ -10,7 +10,10 @@ fn every_shipped_scene_loads_and_builds_its_path() {
         // The placements lie on the artery (within a millimetre).
         for p in scene.placements {
             let off = path.nearest(p).offset_m;
-            assert!(off.abs() < 1e-3, "{name}: placement {p:?} is {off} m off the path");
+            assert!(
+                off.abs() < 1e-3,
+                "{name}: placement {p:?} is {off} m off the path"
+            );
         }
         // And the name without `.ron` finds the same scene.
         let again = load(name.trim_end_matches(".ron"), None).unwrap();
@@ -41,7 +44,10 @@ fn arcs_are_the_seed_geometry() {
         assert_eq!(s.mass.map(|m| m.mass_kg), Some(0.3));
         let [a, b] = s.placements;
         let gap = a.distance_to(&b);
-        assert!((0.01..=0.02).contains(&gap), "{name}: placements {gap} m apart");
+        assert!(
+            (0.01..=0.02).contains(&gap),
+            "{name}: placements {gap} m apart"
+        );
     }
 }
 
@@ -51,7 +57,11 @@ fn radial_wrist_is_physiological() {
     let d = 2.0 * s.artery.inner_radius_m;
     assert!((0.0022..=0.0032).contains(&d));
     assert!((0.0034..=0.0047).contains(&s.artery.depth_m));
-    assert!(s.artery.depth_end_m.is_some_and(|e| (0.0034..=0.0047).contains(&e)));
+    assert!(
+        s.artery
+            .depth_end_m
+            .is_some_and(|e| (0.0034..=0.0047).contains(&e))
+    );
     let [a, b] = s.placements;
     assert!((a.distance_to(&b) - 0.005).abs() < 0.001);
     assert!(matches!(s.pulse, PulseSpec::Physiological { .. }));
@@ -80,7 +90,8 @@ fn bad_scene_files_name_file_line_and_field() {
     assert!(msg.starts_with("bad.ron:13:"), "{msg}");
     assert!(msg.contains("contact_stiffnes_n_per_m"), "{msg}");
     // A value out of range is located by validation.
-    let src = minimal("  shaft: (\n    diameter_m: -0.0045,\n    youngs_modulus_pa: 200e9,\n  ),\n");
+    let src =
+        minimal("  shaft: (\n    diameter_m: -0.0045,\n    youngs_modulus_pa: 200e9,\n  ),\n");
     let e = config::load_str::<Scene>("bad.ron", &src).unwrap_err();
     assert_eq!(e.problems[0].field, "shaft.diameter_m");
     assert_eq!(e.problems[0].line, Some(14), "{e}");
@@ -111,7 +122,13 @@ fn bad_scene_files_name_file_line_and_field() {
     assert!(fields.contains(&"track.reason"), "{fields:?}");
     assert!(fields.contains(&"faults.dead_elements[0]"), "{fields:?}");
     // Garbage never panics.
-    for junk in ["", "Scene(", "Scene(version: 1)", "[1, 2", "Scene(version: 1, name: 3)"] {
+    for junk in [
+        "",
+        "Scene(",
+        "Scene(version: 1)",
+        "[1, 2",
+        "Scene(version: 1, name: 3)",
+    ] {
         assert!(config::load_str::<Scene>("junk.ron", junk).is_err());
     }
 }
@@ -123,7 +140,11 @@ fn files_load_by_path_relative_to_a_base_dir() {
     std::fs::write(dir.join("mine.ron"), minimal("")).unwrap();
     let s = load("mine.ron", Some(&dir)).unwrap();
     assert_eq!(s.name, "t");
-    std::fs::write(dir.join("broken.ron"), minimal("  lumps: [(centre: (x_m: 0.0, z_m: 0.0), depth_m: -1.0, pressure_gain: 1.0)],\n")).unwrap();
+    std::fs::write(
+        dir.join("broken.ron"),
+        minimal("  lumps: [(centre: (x_m: 0.0, z_m: 0.0), depth_m: -1.0, pressure_gain: 1.0)],\n"),
+    )
+    .unwrap();
     let e = load("broken.ron", Some(&dir)).unwrap_err();
     let msg = e.to_string();
     assert!(msg.contains("broken.ron:13:"), "{msg}");

@@ -322,6 +322,33 @@ impl Validate for RobotSpec {
                 100.0,
             );
         }
+        if let Some(m) = &self.masses {
+            v.at("masses", |v| {
+                v.in_range("gravity_m_s2", m.gravity_m_s2, 0.0, 20.0);
+                let named = [
+                    ("forearm", m.forearm),
+                    ("parallel_link", m.parallel_link),
+                    ("upper_arm", m.upper_arm),
+                    ("drive_link", m.drive_link),
+                    ("gimbal", m.gimbal),
+                ];
+                for (name, b) in named {
+                    v.in_range(&format!("{name}.mass_kg"), b.mass_kg, 0.0, 10.0);
+                    v.in_range(
+                        &format!("{name}.along_upper_arm_m"),
+                        b.along_upper_arm_m,
+                        -1.0,
+                        1.0,
+                    );
+                    v.in_range(
+                        &format!("{name}.along_forearm_m"),
+                        b.along_forearm_m,
+                        -1.0,
+                        1.0,
+                    );
+                }
+            });
+        }
         v.in_range(
             "encoder_counts_per_rev",
             self.encoder_counts_per_rev,
