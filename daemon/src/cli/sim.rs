@@ -36,6 +36,9 @@ pub struct Args {
     /// Write plots (PNG and SVG) into this directory.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Print every tracker event of every trial on stderr, with where the sensor truly was.
+    #[arg(long)]
+    pub events: bool,
     /// The daemon configuration giving the rig's geometry, gains and tracker constants;
     /// default: the shipped simulator configuration.
     #[arg(long)]
@@ -93,6 +96,11 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
             trial.backtracks,
             trial.wall_s
         );
+        if args.events {
+            for line in &trial.log {
+                eprintln!("  {line}");
+            }
+        }
         trials.push(trial);
     }
     if let Some(dir) = &args.plot {
