@@ -13,7 +13,7 @@ pub mod error;
 pub mod physics;
 pub mod random;
 pub mod rig;
-// runner: wired in once control's tracker lands.
+pub mod runner;
 
 pub mod scene;
 pub mod trial;

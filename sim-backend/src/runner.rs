@@ -110,9 +110,10 @@ impl Lockstep {
                 other => SimError::Control(other.to_string()),
             })?;
         let bench = Bench::new(scene, config, seed, scene.robot.is_none())?;
-        let pd = PdController::new(config.control.pd).map_err(|e| SimError::Control(e.to_string()))?;
-        let planner =
-            MotionPlanner::new(config.control.motion).map_err(|e| SimError::Control(e.to_string()))?;
+        let pd =
+            PdController::new(config.control.pd).map_err(|e| SimError::Control(e.to_string()))?;
+        let planner = MotionPlanner::new(config.control.motion)
+            .map_err(|e| SimError::Control(e.to_string()))?;
         let mut lockstep = Self {
             bench,
             model,
@@ -430,7 +431,10 @@ impl Lockstep {
         let (duration_s, beats) = match outcome.tracking_from_s {
             Some(t0) => {
                 let b0 = outcome.beats_at_start;
-                (t_end - t0, self.bench.beats_started_by(t_end).saturating_sub(b0))
+                (
+                    t_end - t0,
+                    self.bench.beats_started_by(t_end).saturating_sub(b0),
+                )
             }
             None => (0.0, 0),
         };

@@ -69,7 +69,8 @@ fn load_config(path: Option<&Path>) -> Result<Config, String> {
             .map_err(|e| e.to_string()),
         None => {
             let (name, text) = config::shipped::SIM_CONFIG;
-            config::load_str::<Config>(&format!("<shipped {name}>"), text).map_err(|e| e.to_string())
+            config::load_str::<Config>(&format!("<shipped {name}>"), text)
+                .map_err(|e| e.to_string())
         }
     }
 }
@@ -224,7 +225,8 @@ fn plot_trials(
             "force minus its mean (N)",
         );
         for e in 0..ELEMENTS {
-            let mean = window.iter().map(|f| f.force_n[e]).sum::<f64>() / window.len().max(1) as f64;
+            let mean =
+                window.iter().map(|f| f.force_n[e]).sum::<f64>() / window.len().max(1) as f64;
             trace = trace.with(Series::new(
                 format!("element {e}"),
                 window
