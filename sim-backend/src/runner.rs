@@ -84,7 +84,13 @@ struct Lockstep {
     sensor_track: Vec<(f64, SurfacePoint, SurfacePoint)>,
     next_track_sample_s: f64,
     log: Vec<String>,
+    /// The true sensor at each recent frame, to score a localization at the time it was
+    /// made (its event may come out a few frames later, once the next move has begun).
+    recent_truth: std::collections::VecDeque<(f64, SurfacePoint)>,
 }
+
+/// Frames of true positions kept for scoring late events (a second at 100 Hz).
+const RECENT_FRAMES: usize = 100;
 
 impl Lockstep {
     fn new(
@@ -133,6 +139,7 @@ impl Lockstep {
             sensor_track: Vec::new(),
             next_track_sample_s: 0.0,
             log: Vec::new(),
+            recent_truth: std::collections::VecDeque::with_capacity(RECENT_FRAMES + 1),
         };
         lockstep.update_belief()?;
         Ok(lockstep)
@@ -203,7 +210,8 @@ impl Lockstep {
     /// One servo period; returns the tactile frame sampled in it, if any.
     fn servo(&mut self) -> Result<Option<TactileFrame>, Stop> {
         if self.bench.is_ideal() {
-            if let Some((p, _)) = self.planner.setpoint(self.now()) {
+            // The ideal robot is where the setpoint is at the end of this period.
+            if let Some((p, _)) = self.planner.setpoint(self.now() + self.bench.dt_s()) {
                 self.bench.place_ideal(SurfacePoint::new(p.x, p.z));
             }
         } else {
@@ -248,6 +256,11 @@ impl Lockstep {
                 if self.recording_first {
                     self.first_acquisition.push(f);
                 }
+                let truth = self.bench.truth();
+                if self.recent_truth.len() == RECENT_FRAMES {
+                    self.recent_truth.pop_front();
+                }
+                self.recent_truth.push_back((f.t_s, truth.sensor));
                 return Ok(f);
             }
         }
@@ -355,13 +368,13 @@ impl Lockstep {
             ));
             match ev {
                 TrackerEvent::Located(p) => {
-                    let truth = self.bench.truth();
+                    let sensor = self.true_sensor_at(p.t_s);
                     self.located.push(LocatedSample {
                         t_s: p.t_s,
                         x_m: p.point.x_m,
                         z_m: p.point.z_m,
-                        true_x_m: truth.sensor.x_m + (p.point.x_m - p.sensor.x_m),
-                        true_z_m: truth.sensor.z_m + (p.point.z_m - p.sensor.z_m),
+                        true_x_m: sensor.x_m + (p.point.x_m - p.sensor.x_m),
+                        true_z_m: sensor.z_m + (p.point.z_m - p.sensor.z_m),
                         seed: p.seed,
                         lateral_error_m: 0.0,
                         along_path_m: 0.0,
@@ -373,6 +386,15 @@ impl Lockstep {
             }
         }
         Ok(out.event)
+    }
+
+    /// Where the sensor truly was at the frame stamped nearest `t_s`.
+    fn true_sensor_at(&mut self, t_s: f64) -> SurfacePoint {
+        self.recent_truth
+            .iter()
+            .min_by(|a, b| (a.0 - t_s).abs().total_cmp(&(b.0 - t_s).abs()))
+            .map(|&(_, s)| s)
+            .unwrap_or_else(|| self.bench.truth().sensor)
     }
 
     /// Mark at the current placement until the tracker reports the seed point or a miss.
@@ -513,3 +535,7 @@ impl Outcome {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "runner_tests.rs"]
+mod tests;
