@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use config::Config;
+use control::signal::bandpass::{BandPass, BandPassSpec};
 use control::types::ELEMENTS;
 use serde::Serialize;
 use sim::scene::{ArteryPath, Scene};
@@ -106,7 +107,7 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
     }
     if let Some(dir) = &args.plot {
         let path = ArteryPath::from_spec(&scene.artery.path).map_err(|e| e.to_string())?;
-        let files = plot_trials(&scene, &path, &trials, dir).map_err(|e| e.to_string())?;
+        let files = plot_trials(&config, &scene, &path, &trials, dir).map_err(|e| e.to_string())?;
         for f in files {
             eprintln!("wrote {}", f.display());
         }
@@ -159,6 +160,7 @@ fn print_summary(scene: &Scene, tracker: &str, trials: &[TrialResult]) {
 }
 
 fn plot_trials(
+    config: &Config,
     scene: &Scene,
     path: &ArteryPath,
     trials: &[TrialResult],
@@ -206,7 +208,8 @@ fn plot_trials(
         ));
     }
     files.extend(write_chart(&err, dir, "error_along_path")?);
-    // A 4 s trace of all ten elements at the first placement (like the seed's Fig. 2).
+    // A 4 s trace of all ten elements at the first placement, band-passed with the seed's
+    // filter as the tracker configures it (the seed's Fig. 2).
     if let Some(t) = trials.first()
         && let Some(first) = t.first_acquisition.first()
     {
@@ -216,22 +219,40 @@ fn plot_trials(
             .iter()
             .filter(|f| f.t_s - t0 <= 4.0)
             .collect();
+        let p = &config.tracker.params.seed2002;
+        let filter = BandPass::design(BandPassSpec {
+            order: p.fir_order,
+            low_hz: p.band_low_hz,
+            high_hz: p.band_high_hz,
+            sample_rate_hz: config.sensor.sample_rate_hz,
+        });
         let mut trace = Chart::new(
             format!(
-                "{}: all ten elements at the first placement, 4 s (raw, mean removed)",
+                "{}: all ten elements at the first placement, 4 s, band-passed",
                 scene.name
             ),
             "time (s)",
-            "force minus its mean (N)",
+            "filtered force (N)",
         );
         for e in 0..ELEMENTS {
-            let mean =
-                window.iter().map(|f| f.force_n[e]).sum::<f64>() / window.len().max(1) as f64;
+            let raw: Vec<f64> = window.iter().map(|f| f.force_n[e]).collect();
+            let mut filtered = vec![0.0; raw.len()];
+            match &filter {
+                Ok(bp) => bp.apply(&raw, &mut filtered),
+                Err(_) => {
+                    // No usable filter in the configuration: plot the raw force about its mean.
+                    let mean = raw.iter().sum::<f64>() / raw.len().max(1) as f64;
+                    for (o, r) in filtered.iter_mut().zip(&raw) {
+                        *o = r - mean;
+                    }
+                }
+            }
             trace = trace.with(Series::new(
                 format!("element {e}"),
                 window
                     .iter()
-                    .map(|f| (f.t_s - t0, f.force_n[e] - mean))
+                    .zip(&filtered)
+                    .map(|(f, v)| (f.t_s - t0, *v))
                     .collect(),
                 Mark::Line,
             ));
