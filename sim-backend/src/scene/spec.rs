@@ -239,7 +239,7 @@ impl Default for RobotSpec {
     fn default() -> Self {
         Self {
             phantom: None,
-            joint_inertia_kg_m2: [0.0040, 0.0035, 0.0025],
+            joint_inertia_kg_m2: [0.0040, 0.0020, 0.0010],
             coulomb_friction_nm: [0.012, 0.010, 0.010],
             viscous_friction_nm_s: [0.002, 0.002, 0.002],
             masses: None,
