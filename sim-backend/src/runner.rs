@@ -188,7 +188,12 @@ impl Lockstep {
         SurfacePoint::new(self.believed.x, self.believed.z)
     }
 
-    /// The joint setpoint for the planner's setpoint now.
+    /// The joint setpoint for the planner's setpoint now. At rest it is control's
+    /// `ArmModel::joint_setpoint`, cached while the planner holds still. During a move it is
+    /// the same map computed from `ArmModel`'s inverse kinematics and Jacobian directly: the
+    /// 3x3 SVD conditioning guard inside `joint_setpoint` costs about 2 µs, more than the
+    /// whole plant step, so the runner applies it once per move, at the move's target
+    /// ([`Self::apply`]), instead of every millisecond.
     fn joint_setpoint(&mut self) -> Result<Option<JointSetpoint>, SimError> {
         let t = self.now();
         let Some((p, v)) = self.planner.setpoint(t) else {
@@ -204,7 +209,21 @@ impl Lockstep {
             self.rest_setpoint = Some((p, sp));
             return Ok(Some(sp));
         }
-        Ok(Some(self.model.joint_setpoint(&p, &v)?))
+        let q = self.model.joints_for_sensor(&p)?;
+        let j = self.model.sensor_jacobian(&q)?;
+        let rates = j.lu().solve(&v).ok_or(SimError::Kinematics(
+            control::kinematics::KinematicsError::Singular {
+                what: "sensor Jacobian",
+            },
+        ))?;
+        let sp = JointSetpoint {
+            position_rad: q,
+            velocity_rad_s: [rates.x, rates.y, rates.z],
+        };
+        if !sp.is_finite() {
+            return Err(SimError::NonFinite("joint setpoint"));
+        }
+        Ok(Some(sp))
     }
 
     /// One servo period; returns the tactile frame sampled in it, if any.
@@ -320,9 +339,10 @@ impl Lockstep {
         match motion {
             MotionCommand::MoveTo { target, speed_m_s } => {
                 if self.last_move_target != Some(target) {
-                    // The target must be reachable before the arm is sent there.
+                    // The target must be reachable, and well conditioned, before the arm
+                    // is sent there.
                     let p = self.planner.contact_point(&target);
-                    self.model.joints_for_sensor(&p)?;
+                    self.model.joint_setpoint(&p, &Vector3::zeros())?;
                     self.move_to(target, speed_m_s)?;
                 }
             }
