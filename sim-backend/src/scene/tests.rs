@@ -153,3 +153,14 @@ fn files_load_by_path_relative_to_a_base_dir() {
     assert!(e.to_string().contains("seed-arc-145.ron"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_daemons_default_config_names_a_scene_that_loads() {
+    let (name, text) = config::shipped::SIM_CONFIG;
+    let c: config::Config = config::load_str(name, text).unwrap();
+    let config::schema::Backend::Sim(sim) = c.backend else {
+        panic!("sim.ron must use the simulator");
+    };
+    let scene = load(&sim.scene, None).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.name, "seed-arc-145");
+}
