@@ -131,3 +131,69 @@ impl TactileArray for SimTactile {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rig() -> SimRig {
+        let (name, text) = config::shipped::SIM_CONFIG;
+        let config: config::Config = config::load_str(name, text).expect("shipped config");
+        let scene = crate::scene::load("seed-arc-145.ron", None).expect("shipped scene");
+        SimRig::new(&scene, &config, 1).expect("rig")
+    }
+
+    #[test]
+    fn ports_advance_simulated_time_and_deliver_frames() {
+        let (mut arm, mut tactile) = rig().split();
+        assert_eq!(arm.now_s(), 0.0);
+        assert!(
+            tactile.poll_frame().unwrap().is_none(),
+            "no frame before time moves"
+        );
+        arm.enable().unwrap();
+        let hold = arm.read_joints().unwrap();
+        for _ in 0..100 {
+            arm.write_torques(&JointTorques::ZERO).unwrap();
+        }
+        assert!((arm.now_s() - 0.1).abs() < 1e-12);
+        let mut frames = Vec::new();
+        while let Some(f) = tactile.poll_frame().unwrap() {
+            frames.push(f);
+        }
+        assert_eq!(frames.len(), 10);
+        assert!((frames[9].t_s - 0.1).abs() < 1e-9);
+        let state = arm.read_joints().unwrap();
+        assert!((state.t_s - 0.1).abs() < 1e-12);
+        assert!(state.is_finite() && hold.is_finite());
+        // The truth is on the tissue and near the start point.
+        let t = arm.truth();
+        assert!(t.normal_n > 0.0 && t.sensor.is_finite());
+        assert!(arm.path().length_m() > 0.25);
+    }
+
+    #[test]
+    fn a_dropped_arm_disconnects_the_tactile_port_after_its_frames() {
+        let (mut arm, mut tactile) = rig().split();
+        for _ in 0..20 {
+            arm.write_torques(&JointTorques::ZERO).unwrap();
+        }
+        drop(arm);
+        assert!(tactile.poll_frame().unwrap().is_some());
+        assert!(tactile.poll_frame().unwrap().is_some());
+        assert!(matches!(
+            tactile.poll_frame(),
+            Err(SimError::Disconnected(_))
+        ));
+    }
+
+    #[test]
+    fn non_finite_torques_are_refused() {
+        let (mut arm, _tactile) = rig().split();
+        arm.enable().unwrap();
+        let mut bad = JointTorques::ZERO;
+        bad.torque_nm[2] = f64::INFINITY;
+        assert!(arm.write_torques(&bad).is_err());
+        assert_eq!(arm.now_s(), 0.0, "a refused command does not advance time");
+    }
+}
