@@ -188,6 +188,13 @@ mod tests {
     }
 
     #[test]
+    fn both_ports_can_move_to_other_threads() {
+        fn send<T: Send>() {}
+        send::<SimArm>();
+        send::<SimTactile>();
+    }
+
+    #[test]
     fn non_finite_torques_are_refused() {
         let (mut arm, _tactile) = rig().split();
         arm.enable().unwrap();
