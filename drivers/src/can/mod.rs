@@ -1,0 +1,1 @@
+//! The Phantom's joint amplifiers on CAN.
