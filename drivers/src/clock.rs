@@ -12,6 +12,12 @@ pub trait Clock: Send + Sync {
     fn now_s(&self) -> f64;
 }
 
+impl std::fmt::Debug for dyn Clock {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Clock(now {} s)", self.now_s())
+    }
+}
+
 impl<F: Fn() -> f64 + Send + Sync> Clock for F {
     fn now_s(&self) -> f64 {
         self()
@@ -54,5 +60,32 @@ impl Default for MonotonicClock {
 impl Clock for MonotonicClock {
     fn now_s(&self) -> f64 {
         self.origin.elapsed().as_secs_f64() * self.scale
+    }
+}
+
+/// A clock moved by hand (tests, log replay).
+#[derive(Debug, Clone, Default)]
+pub struct ManualClock(Arc<std::sync::atomic::AtomicU64>);
+
+impl ManualClock {
+    pub fn new(t_s: f64) -> Self {
+        let c = Self::default();
+        c.set(t_s);
+        c
+    }
+
+    pub fn set(&self, t_s: f64) {
+        self.0
+            .store(t_s.to_bits(), std::sync::atomic::Ordering::Relaxed);
+    }
+
+    pub fn advance(&self, dt_s: f64) {
+        self.set(self.now_s() + dt_s);
+    }
+}
+
+impl Clock for ManualClock {
+    fn now_s(&self) -> f64 {
+        f64::from_bits(self.0.load(std::sync::atomic::Ordering::Relaxed))
     }
 }

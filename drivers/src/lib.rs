@@ -11,4 +11,4 @@ pub mod clock;
 pub mod pty;
 pub mod tactile;
 
-pub use clock::{Clock, MonotonicClock};
+pub use clock::{Clock, ManualClock, MonotonicClock};

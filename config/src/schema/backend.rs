@@ -125,6 +125,9 @@ pub struct CanJoints {
     pub enable_timeout_s: f64,
     /// Time constant of the low-pass on the encoder-difference velocity, s.
     pub velocity_filter_s: f64,
+    /// Feedback implying a faster joint than this is an encoder glitch and is dropped,
+    /// rad/s.
+    pub max_joint_speed_rad_s: f64,
 }
 
 impl Default for CanJoints {
@@ -144,6 +147,7 @@ impl Default for CanJoints {
             heartbeat_period_s: 0.05,
             enable_timeout_s: 0.5,
             velocity_filter_s: 0.002,
+            max_joint_speed_rad_s: 20.0,
         }
     }
 }
@@ -236,6 +240,7 @@ impl Validate for CanJoints {
         v.positive("heartbeat_period_s", self.heartbeat_period_s);
         v.positive("enable_timeout_s", self.enable_timeout_s);
         v.positive("velocity_filter_s", self.velocity_filter_s);
+        v.positive("max_joint_speed_rad_s", self.max_joint_speed_rad_s);
     }
 }
 

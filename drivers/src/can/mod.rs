@@ -1,1 +1,14 @@
-//! The Phantom's joint amplifiers on CAN.
+//! The Phantom's joint amplifiers on CAN: protocol (docs/protocols/phantom-can.md), the
+//! driver, and adapters (SocketCAN, slcan over a tty, a mock, candump replay).
+
+pub mod adapter;
+pub mod driver;
+pub mod frame;
+pub mod mock;
+pub mod protocol;
+pub mod scaling;
+
+pub use adapter::{AdapterError, CanAdapter};
+pub use driver::{CanError, CanStats, DriveState, Fault, PhantomCan};
+pub use frame::{BusCondition, BusEvent, DataFrame};
+pub use mock::MockBus;
