@@ -6,7 +6,10 @@ pub mod driver;
 pub mod frame;
 pub mod mock;
 pub mod protocol;
+pub mod replay;
 pub mod scaling;
+pub mod socketcan_adapter;
+mod socketcan_conv;
 
 pub use adapter::{AdapterError, CanAdapter};
 pub use driver::{CanError, CanStats, DriveState, Fault, PhantomCan};
