@@ -5,9 +5,11 @@ pub mod adapter;
 pub mod driver;
 pub mod frame;
 pub mod mock;
+pub mod phantom_emulator;
 pub mod protocol;
 pub mod replay;
 pub mod scaling;
+pub mod slcan;
 pub mod socketcan_adapter;
 mod socketcan_conv;
 
