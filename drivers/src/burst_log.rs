@@ -43,7 +43,10 @@ impl BurstLog {
 
     /// Close the burst if it has been quiet long enough; logs how many there were.
     pub fn end_if_quiet(&mut self, now_s: f64) {
-        if self.active && !(now_s - self.last_s < self.quiet_s) {
+        // NaN times end a burst rather than keep it open forever.
+        let quiet =
+            (now_s - self.last_s).partial_cmp(&self.quiet_s) != Some(std::cmp::Ordering::Less);
+        if self.active && quiet {
             tracing::info!("{}: burst over, {} in all", self.what, self.count);
             self.active = false;
             self.count = 0;

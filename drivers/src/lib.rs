@@ -8,6 +8,7 @@
 pub mod burst_log;
 pub mod can;
 pub mod clock;
+pub mod hardware;
 pub mod pty;
 pub mod tactile;
 

@@ -43,11 +43,11 @@ impl Rig {
     fn feedback(&mut self, counts: [i32; 3], st: u8) {
         self.clock.advance(0.001);
         self.amp_us = self.amp_us.wrapping_add(1000);
-        for j in 0..3 {
+        for (j, &c) in counts.iter().enumerate() {
             self.seq[j] = self.seq[j].wrapping_add(1);
             let m = Message::Feedback {
                 node: j as u8 + 1,
-                counts: counts[j],
+                counts: c,
                 amp_time_us: self.amp_us,
                 status: st,
                 seq: self.seq[j],

@@ -62,7 +62,7 @@ fn torque_moves_the_emulated_arm_and_faults_stop_it() {
 
     let start = run_until(&mut arm, [0.0; 3], |r, _| r.is_ok());
     arm.enable().expect("enable");
-    run_until(&mut arm, [0.0; 3], |_, s| *s == DriveState::Enabled);
+    let _ = run_until(&mut arm, [0.0; 3], |_, s| *s == DriveState::Enabled);
 
     // Positive torque on joint 0, negative on joint 1: they turn that way.
     let moved = run_until(&mut arm, [0.2, -0.2, 0.0], |r, _| {
@@ -97,7 +97,7 @@ fn torque_moves_the_emulated_arm_and_faults_stop_it() {
         let _ = arm.read_joints();
         std::thread::sleep(Duration::from_millis(1));
     }
-    run_until(&mut arm, [0.0; 3], |_, s| *s == DriveState::Enabled);
+    let _ = run_until(&mut arm, [0.0; 3], |_, s| *s == DriveState::Enabled);
 
     // Bus-off reported by the adapter's status flags.
     emu.bus_off();

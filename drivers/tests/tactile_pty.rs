@@ -116,13 +116,11 @@ fn frames_stream_end_to_end_with_device_timing() {
     for f in &frames {
         let t = (f.seq - first_seq) as f64 * 0.01;
         let expected = ramp(t);
-        for i in 0..ELEMENTS {
+        for (i, (got, want)) in f.force_n.iter().zip(expected).enumerate() {
             assert!(
-                (f.force_n[i] - expected[i]).abs() <= 0.5e-4 + 1e-12,
-                "frame {} element {i}: {} vs {}",
-                f.seq,
-                f.force_n[i],
-                expected[i]
+                (got - want).abs() <= 0.5e-4 + 1e-12,
+                "frame {} element {i}: {got} vs {want}",
+                f.seq
             );
         }
     }
@@ -189,7 +187,7 @@ fn every_kind_of_bad_input_is_counted_and_the_stream_survives() {
     assert_eq!(s.crc_errors + s.framing_errors, n(31) + n(37) + n(47));
     assert_eq!(s.missing_frames, lost);
     // Adjacent lost frames make one gap.
-    let is_lost = |k: u64| k % 23 == 0 || k % 31 == 0 || k % 37 == 0;
+    let is_lost = |k: u64| [23, 31, 37].iter().any(|&p| k.is_multiple_of(p));
     let gaps = (1..=K).filter(|&k| is_lost(k) && !is_lost(k - 1)).count() as u64;
     assert_eq!(s.gaps, gaps);
     assert_eq!(s.out_of_range + s.reordered + s.resyncs + s.queue_drops, 0);

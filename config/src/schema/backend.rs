@@ -4,6 +4,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::validate::{Validate, Validator};
 
+// Read once at start-up; the size of the hardware variant does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Backend {
     /// The physical simulator: a scene file, a random seed, a clock.
@@ -159,7 +161,7 @@ impl Validate for SerialTactile {
         v.positive("reconnect_initial_s", self.reconnect_initial_s);
         v.positive("reconnect_max_s", self.reconnect_max_s);
         v.check(
-            !(self.reconnect_max_s < self.reconnect_initial_s),
+            self.reconnect_max_s >= self.reconnect_initial_s,
             "reconnect_max_s",
             "must not be below reconnect_initial_s",
         );

@@ -193,7 +193,7 @@ impl Arm {
             self.integrate(dt_s);
             if self.channel_open && !self.bus_off {
                 self.send_feedback();
-                if step % 100 == 0 {
+                if step.is_multiple_of(100) {
                     self.send_heartbeats();
                 }
             }

@@ -64,13 +64,13 @@ impl SocketCanAdapter {
             .map_err(|e| format!("cannot configure CAN socket on {interface}: {e}"))?;
         // A UP interface may still be administratively fine but have no carrier.
         let sys = Path::new("/sys/class/net").join(interface);
-        if let Ok(state) = std::fs::read_to_string(sys.join("operstate")) {
-            if state.trim() == "down" {
-                return Err(format!(
-                    "CAN interface {interface} is down; bring it up with \
-                     `sudo ip link set {interface} up type can bitrate 1000000`"
-                ));
-            }
+        if let Ok(state) = std::fs::read_to_string(sys.join("operstate"))
+            && state.trim() == "down"
+        {
+            return Err(format!(
+                "CAN interface {interface} is down; bring it up with \
+                 `sudo ip link set {interface} up type can bitrate 1000000`"
+            ));
         }
         Ok(Self {
             interface: interface.to_string(),

@@ -57,7 +57,7 @@ pub struct Impairments {
 }
 
 fn hits(every: Option<u64>, k: u64) -> bool {
-    every.is_some_and(|n| n > 0 && k % n == 0)
+    every.is_some_and(|n| n > 0 && k.is_multiple_of(n))
 }
 
 /// How the emulated device behaves.

@@ -87,7 +87,7 @@ impl SyntheticPulse {
     pub fn sample(&mut self, t_s: f64) -> [f64; ELEMENTS] {
         let mut out = [0.0; ELEMENTS];
         for (i, f) in out.iter_mut().enumerate() {
-            *f = self.clean_force_n(i, t_s) + self.scene.noise_sd_n * self.noise.next();
+            *f = self.clean_force_n(i, t_s) + self.scene.noise_sd_n * self.noise.sample();
         }
         out
     }
@@ -121,7 +121,7 @@ impl GaussianNoise {
         ((self.next_u64() >> 11) as f64 + 1.0) / (1u64 << 53) as f64
     }
 
-    pub fn next(&mut self) -> f64 {
+    pub fn sample(&mut self) -> f64 {
         if let Some(s) = self.spare.take() {
             return s;
         }
@@ -165,7 +165,7 @@ mod tests {
     fn noise_has_unit_variance() {
         let mut g = GaussianNoise::new(7);
         let n = 200_000;
-        let xs: Vec<f64> = (0..n).map(|_| g.next()).collect();
+        let xs: Vec<f64> = (0..n).map(|_| g.sample()).collect();
         let mean = xs.iter().sum::<f64>() / n as f64;
         let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
         assert!(mean.abs() < 0.01, "mean {mean}");
