@@ -269,3 +269,92 @@ impl Validate for Backend {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::{Config, load_str, shipped::LAB_CONFIG};
+
+    fn lab_with(from: &str, to: &str) -> String {
+        let (_, text) = LAB_CONFIG;
+        assert!(text.contains(from), "lab.ron has no {from:?}");
+        text.replace(from, to)
+    }
+
+    fn problems(text: &str) -> String {
+        match load_str::<Config>("lab.ron", text) {
+            Ok(_) => panic!("accepted"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn hardware_errors_name_the_field_and_line() {
+        let e = problems(&lab_with("node_ids: (1, 2, 3)", "node_ids: (1, 2, 2)"));
+        assert!(
+            e.contains("field `backend.joints.node_ids[2]`: node id 2 is used twice"),
+            "{e}"
+        );
+        assert!(e.starts_with("lab.ron:"), "{e}");
+
+        let e = problems(&lab_with("max_force_n: 3.0", "max_force_n: 5.0"));
+        assert!(e.contains("field `backend.tactile.max_force_n`"), "{e}");
+
+        let e = problems(&lab_with(
+            "direction: (1.0, 1.0, 1.0)",
+            "direction: (1.0, 0.5, 1.0)",
+        ));
+        assert!(
+            e.contains("field `backend.joints.direction[1]`: must be 1 or -1"),
+            "{e}"
+        );
+
+        let e = problems(&lab_with(
+            "max_motor_torque_nm: (0.0286, 0.0286, 0.0286)",
+            "max_motor_torque_nm: (0.0286, 0.0286, 0.5)",
+        ));
+        assert!(
+            e.contains("field `backend.joints.max_motor_torque_nm[2]`"),
+            "{e}"
+        );
+
+        let e = problems(&lab_with(
+            "adapter: SocketCan(interface: \"can0\")",
+            "adapter: SocketCan(interface: \"\")",
+        ));
+        assert!(e.contains("backend.joints.adapter.interface"), "{e}");
+
+        let e = problems(&lab_with(
+            "adapter: SocketCan(interface: \"can0\")",
+            "adapter: Slcan(path: \"/dev/ttyACM0\", baud: 115200, bitrate_bps: 300000)",
+        ));
+        assert!(e.contains("backend.joints.adapter.bitrate_bps"), "{e}");
+
+        let e = problems(&lab_with("reconnect_max_s: 2.0", "reconnect_max_s: 0.01"));
+        assert!(e.contains("backend.tactile.reconnect_max_s"), "{e}");
+
+        let e = problems(&lab_with(
+            "baud: 115200,\n            reconnect",
+            "bauds: 115200,\n            reconnect",
+        ));
+        assert!(e.contains("bauds"), "{e}");
+    }
+
+    #[test]
+    fn an_slcan_adapter_is_accepted() {
+        let text = lab_with(
+            "adapter: SocketCan(interface: \"can0\")",
+            "adapter: Slcan(path: \"/dev/serial/by-id/usb-canable-if00\", baud: 115200, bitrate_bps: 1000000)",
+        );
+        let c: Config = load_str("lab.ron", &text).unwrap_or_else(|e| panic!("{e}"));
+        let crate::schema::Backend::Hardware(hw) = c.backend else {
+            panic!("lab.ron selects hardware")
+        };
+        assert!(matches!(
+            hw.joints.adapter,
+            crate::schema::CanAdapter::Slcan {
+                bitrate_bps: 1_000_000,
+                ..
+            }
+        ));
+    }
+}
