@@ -14,6 +14,9 @@ seconds="${1:-60}"
 status=0
 for target in tactile_decoder can_decoder; do
     mkdir -p "corpus/$target"
+    # Start from valid messages (fuzz/seeds, made by make_seeds.py) so the fuzzer begins
+    # past the CRC and the framing.
+    cp -n "seeds/$target"/* "corpus/$target"/ 2>/dev/null || true
     echo "== $target: ${seconds} s"
     # -jobs/-workers 1: the machine is shared; rss limit generous for the ASan build.
     if ! cargo +nightly fuzz run "$target" "corpus/$target" -- \

@@ -48,3 +48,20 @@ pub fn open(
     let tactile = SerialTactileArray::spawn(runtime, &hw.tactile, sample_rate_hz, clock)?;
     Ok((arm, tactile))
 }
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_emulated_lab_config_loads() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/lab-emulated.ron");
+        let c = config::load_file::<config::Config>(&path).unwrap_or_else(|e| panic!("{e}"));
+        let config::schema::Backend::Hardware(hw) = c.value.backend else {
+            panic!("selects hardware")
+        };
+        assert_eq!(hw.tactile.path, "/tmp/pulsetrack-tactile");
+        assert!(matches!(
+            hw.joints.adapter,
+            config::schema::CanAdapter::Slcan { ref path, .. } if path == "/tmp/pulsetrack-slcan"
+        ));
+    }
+}
