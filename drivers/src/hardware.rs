@@ -53,7 +53,8 @@ pub fn open(
 mod tests {
     #[test]
     fn the_emulated_lab_config_loads() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/lab-emulated.ron");
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/lab-emulated.ron");
         let c = config::load_file::<config::Config>(&path).unwrap_or_else(|e| panic!("{e}"));
         let config::schema::Backend::Hardware(hw) = c.value.backend else {
             panic!("selects hardware")

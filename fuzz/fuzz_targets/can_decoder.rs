@@ -74,9 +74,15 @@ fuzz_target!(|data: &[u8]| {
             assert!(js.is_finite());
         }
         let t = f64::from(i16::from_le_bytes([*id_lo, *id_hi])) * 1e-3;
-        let _ = arm.write_torques(&JointTorques { torque_nm: [t, -t, t] });
+        let _ = arm.write_torques(&JointTorques {
+            torque_nm: [t, -t, t],
+        });
         if fatal && matches!(arm.state(), DriveState::Fault(_)) {
-            let queued: Vec<_> = bus.pending().iter().filter_map(|f| Message::decode(f).ok().flatten()).collect();
+            let queued: Vec<_> = bus
+                .pending()
+                .iter()
+                .filter_map(|f| Message::decode(f).ok().flatten())
+                .collect();
             assert!(!queued.iter().any(|m| matches!(m, Message::Torque { .. })));
         }
         if tag & 0x40 != 0 {
