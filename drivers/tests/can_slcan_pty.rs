@@ -25,8 +25,9 @@ fn path(name: &str) -> std::path::PathBuf {
 
 fn settings() -> CanJoints {
     CanJoints {
-        // A pty and a busy test machine deliver feedback in bursts.
-        feedback_timeout_s: 0.2,
+        // A pty on a busy test machine delivers feedback in bursts; this test is about the
+        // protocol, not the 5 ms the rig keeps.
+        feedback_timeout_s: 1.0,
         ..CanJoints::default()
     }
 }

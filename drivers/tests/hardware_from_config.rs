@@ -38,7 +38,7 @@ fn lab_config_with_emulated_devices_runs_a_loop() {
             ),
         )
         // A pty on a shared test machine delivers in bursts; the rig keeps 5 ms.
-        .replace("feedback_timeout_s: 0.005", "feedback_timeout_s: 0.2");
+        .replace("feedback_timeout_s: 0.005", "feedback_timeout_s: 1.0");
     let cfg: Config =
         config::load_str::<Config>("lab-emulated.ron", &text).unwrap_or_else(|e| panic!("{e}"));
     let Backend::Hardware(hw) = &cfg.backend else {
