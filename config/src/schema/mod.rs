@@ -61,6 +61,9 @@ impl Validate for Config {
         v.section("control", &self.control);
         v.section("sensor", &self.sensor);
         v.section("tracker", &self.tracker);
+        v.at("tracker", |v| {
+            self.tracker.validate_with_sensor(&self.sensor, v)
+        });
         v.section("safety", &self.safety);
         v.section("console", &self.console);
         v.section("recording", &self.recording);
