@@ -1,9 +1,7 @@
 //! End to end over the serial line: a pulsing artery goes into the emulated array, frames
-//! come out of the real driver, and the artery is localized on the array from them.
-//!
-//! The localization here is a stand-in until control's signal processing (`control::signal`,
-//! the seed2002 tracker) lands: the element whose force varies most, refined by a parabola
-//! through it and its neighbours.
+//! come out of the real driver, and control's seed2002 tracker localizes the artery from them
+//! exactly as at a surgeon's manual placement (`mark`, then one frame per step until it
+//! reports the seed point).
 
 use pulsetrack_drivers as drivers;
 
@@ -11,47 +9,23 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use config::schema::SerialTactile;
+use control::frames::SurfacePoint;
 use control::ports::TactileArray;
 use control::sensor::ArrayGeometry;
-use control::types::{ELEMENTS, TactileFrame};
+use control::tracker::{TrackerEvent, TrackerInput, TrackerParams};
 use drivers::MonotonicClock;
 use drivers::tactile::SerialTactileArray;
 use drivers::tactile::emulator::{EmulatorSettings, TactileEmulator};
 use drivers::tactile::pulse::{PulseScene, SyntheticPulse};
 
-/// Fractional element index of the artery from the per-element standard deviation.
-fn localize(frames: &[TactileFrame]) -> f64 {
-    let n = frames.len() as f64;
-    let sd: Vec<f64> = (0..ELEMENTS)
-        .map(|i| {
-            let mean = frames.iter().map(|f| f.force_n[i]).sum::<f64>() / n;
-            (frames
-                .iter()
-                .map(|f| (f.force_n[i] - mean).powi(2))
-                .sum::<f64>()
-                / n)
-                .sqrt()
-        })
-        .collect();
-    let k = (1..ELEMENTS - 1)
-        .max_by(|&a, &b| sd[a].total_cmp(&sd[b]))
-        .expect("elements");
-    let (l, c, r) = (sd[k - 1], sd[k], sd[k + 1]);
-    k as f64 + 0.5 * (l - r) / (l - 2.0 * c + r)
-}
-
-#[test]
-fn a_pulse_goes_in_and_a_localization_comes_out() {
+/// Mark at a placement with the artery `artery_z_m` off the sensor centre; the tracker's
+/// seed point and the element it found.
+fn mark_over(artery_z_m: f64, name: &str) -> (SurfacePoint, f64) {
     let geometry = ArrayGeometry::default();
-    // The artery 2.4 mm off the sensor centre: element 5.7.
-    let artery_z_m = 0.0024;
-    let truth = geometry.element_at(artery_z_m);
-    assert!((truth - 5.7).abs() < 1e-12);
     let scene = PulseScene {
         artery_z_m,
         ..PulseScene::default()
     };
-
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
         .enable_all()
@@ -59,7 +33,7 @@ fn a_pulse_goes_in_and_a_localization_comes_out() {
         .expect("runtime");
     let dir = std::env::temp_dir().join(format!("pulsetrack-e2e-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
-    let path = dir.join("tactile");
+    let path = dir.join(name);
     let scale = 8.0;
     let mut emu_settings = EmulatorSettings::new(&path);
     emu_settings.time_scale = scale;
@@ -78,12 +52,26 @@ fn a_pulse_goes_in_and_a_localization_comes_out() {
     )
     .expect("driver");
 
-    // Four seconds of the array, as the seed's start-up acquisition.
-    let mut frames = Vec::new();
+    let mut tracker = control::tracker::build("seed2002", &TrackerParams::default(), &geometry)
+        .expect("seed2002");
+    // The sensor centre sits at the tissue origin; the artery runs along x.
+    let sensor = SurfacePoint::new(0.0, 0.0);
+    tracker.mark().expect("seeding");
     let start = Instant::now();
-    while frames.len() < 400 {
-        while let Some(f) = port.poll_frame().expect("link alive") {
-            frames.push(f);
+    let located = 'frames: loop {
+        while let Some(frame) = port.poll_frame().expect("link alive") {
+            let out = tracker.step(&TrackerInput {
+                frame: &frame,
+                sensor,
+                settled: true,
+            });
+            match out.event {
+                Some(TrackerEvent::Located(p)) => break 'frames p,
+                Some(TrackerEvent::Missed { .. }) => {
+                    panic!("the tracker found no pulse; link {:?}", port.status())
+                }
+                _ => {}
+            }
         }
         assert!(
             start.elapsed() < Duration::from_secs(60),
@@ -91,17 +79,30 @@ fn a_pulse_goes_in_and_a_localization_comes_out() {
             port.status()
         );
         std::thread::sleep(Duration::from_millis(2));
-    }
-    frames.truncate(400);
-    let located = localize(&frames);
-    // Within a third of an element (0.7 mm) of the truth; the 2 mm pitch alone would
-    // allow 1 mm.
-    assert!(
-        (located - truth).abs() < 0.35,
-        "located {located}, truth {truth}"
-    );
-    let z = geometry.offset_z_m(located);
-    assert!((z - artery_z_m).abs() < 0.0007, "z {z}");
+    };
+    assert!(located.seed);
     drop(port);
     emu.stop();
+    (located.point, located.element)
+}
+
+#[test]
+fn a_pulse_goes_in_and_a_localization_comes_out() {
+    let geometry = ArrayGeometry::default();
+    for (artery_z_m, name) in [(0.0024, "e2e-a"), (-0.0050, "e2e-b")] {
+        let truth = geometry.element_at(artery_z_m);
+        let (point, element) = mark_over(artery_z_m, name);
+        // The seed's localization: the centre of the run of elements whose pulse exceeds
+        // 2 σ, "to within one or two sensor elements"; here within half an element (1 mm).
+        assert!(
+            (element - truth).abs() <= 0.5 + 1e-9,
+            "artery at element {truth}, located at {element}"
+        );
+        assert!(point.x_m.abs() < 1e-12);
+        assert!(
+            (point.z_m - artery_z_m).abs() <= 0.001 + 1e-12,
+            "artery at z {artery_z_m}, located at {}",
+            point.z_m
+        );
+    }
 }

@@ -13,6 +13,9 @@ const CLOCK_RELAX_S_PER_S: f64 = 2.0e-4;
 /// to have restarted its counter (rather than replaying old frames).
 const RESYNC_AFTER_BEHIND: u32 = 3;
 
+/// Smallest step between consecutive stamps, s.
+pub const MIN_STAMP_STEP_S: f64 = 1e-6;
+
 /// Why a well-formed force message did not become a frame.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum Rejection {
@@ -59,8 +62,10 @@ impl Checked {
 /// The transport adds a latency that is never negative and often bunches frames (a USB
 /// serial adapter's latency timer). The smallest `arrival - device_time` seen is the best
 /// estimate of the offset; it is allowed to creep up slowly so that clock drift cannot pin
-/// it to an old minimum. A stamp is never later than the frame's arrival and never earlier
-/// than the previous stamp.
+/// it to an old minimum. A stamp is never later than the frame's arrival, and always later
+/// than the previous stamp (consumers assume strictly increasing times): frames that arrive
+/// together before the transport's latency is known get stamps [`MIN_STAMP_STEP_S`] apart,
+/// which may put them that little past their arrival.
 #[derive(Debug, Clone, Copy)]
 pub struct DeviceClockMap {
     last_us: Option<u32>,
@@ -109,7 +114,7 @@ impl DeviceClockMap {
         self.last_us = Some(device_us);
         let stamp = (self.device_s + self.offset_s)
             .min(arrival_s)
-            .max(self.last_stamp_s);
+            .max(self.last_stamp_s + MIN_STAMP_STEP_S);
         self.last_stamp_s = stamp;
         stamp
     }
@@ -344,7 +349,11 @@ mod tests {
         let a = m.stamp(0, 10.020); // 20 ms late
         let b = m.stamp(10_000, 10.011); // 1 ms late: the offset falls by 19 ms
         assert_eq!(a, 10.020);
-        assert_eq!(b, 10.020, "held at the previous stamp, not moved back");
+        assert_eq!(
+            b,
+            10.020 + MIN_STAMP_STEP_S,
+            "just after the previous stamp, not back"
+        );
         let c = m.stamp(20_000, 10.021);
         assert!((c - 10.021).abs() < 1e-9);
     }
