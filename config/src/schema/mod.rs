@@ -12,7 +12,9 @@ mod tracker_section;
 
 use serde::{Deserialize, Serialize};
 
-pub use backend::{Backend, CanJoints, HardwareBackend, SerialTactile, SimBackend};
+pub use backend::{
+    Backend, CanAdapter, CanJoints, HardwareBackend, SLCAN_BITRATES, SerialTactile, SimBackend,
+};
 pub use control_section::ControlSection;
 pub use daemon_sections::{
     ConsoleSection, OperationSection, RealtimeSection, RecordingSection, SafetySection,

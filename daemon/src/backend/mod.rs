@@ -3,6 +3,7 @@
 //! simulator from the rig except through [`BackendInfo`].
 
 pub mod clock;
+mod sim;
 
 use control::types::{JointState, JointTorques, TactileFrame};
 use serde::Serialize;
@@ -103,9 +104,7 @@ pub fn open(
     base_dir: Option<&std::path::Path>,
 ) -> Result<Backend, OpenError> {
     match &config.backend {
-        config::schema::Backend::Sim(_) => Err(OpenError::Backend(
-            "the simulator backend has not landed in this build".into(),
-        )),
+        config::schema::Backend::Sim(s) => sim::open(config, s, base_dir),
         config::schema::Backend::Hardware(_) => {
             let _ = base_dir;
             Err(OpenError::Backend(

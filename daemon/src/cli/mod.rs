@@ -3,6 +3,7 @@
 mod check_config;
 pub mod console;
 mod demo;
+mod sim;
 
 use std::process::ExitCode;
 
@@ -28,6 +29,8 @@ enum Command {
     Demo(demo::Args),
     #[command(flatten)]
     Console(console::Verb),
+    /// Run whole trials on the simulated bench in lockstep and report the tracking error.
+    Sim(sim::Args),
 }
 
 pub fn run() -> ExitCode {
@@ -36,5 +39,6 @@ pub fn run() -> ExitCode {
         Command::CheckConfig(args) => check_config::run(&args),
         Command::Demo(args) => demo::run(&args),
         Command::Console(verb) => console::run(&verb),
+        Command::Sim(args) => sim::run(&args),
     }
 }

@@ -109,7 +109,8 @@ pub fn write_chart(chart: &Chart, dir: &Path, stem: &str) -> Result<Vec<PathBuf>
     Ok(vec![png, svg])
 }
 
-const PALETTE: [RGBColor; 8] = [
+// Ten distinct colours (Tableau 10): one per tactile element without repeats.
+const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -118,6 +119,8 @@ const PALETTE: [RGBColor; 8] = [
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
     RGBColor(23, 190, 207),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
 ];
 
 fn bounds(chart: &Chart) -> Option<((f64, f64), (f64, f64))> {
