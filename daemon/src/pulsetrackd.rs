@@ -123,6 +123,15 @@ pub enum StartError {
     Io(#[from] std::io::Error),
 }
 
+/// The runtime for I/O: the console, signals, the watchdog, the serial driver.
+fn io_runtime() -> std::io::Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .thread_name("pulsetrack-io")
+        .enable_all()
+        .build()
+}
+
 /// What the daemon drives: the backend's ports, the servo and a tracker per trial.
 pub struct Parts {
     pub backend: backend::Backend,
@@ -163,16 +172,25 @@ impl Daemon {
     /// Open the backend the config names, start every task, bind the console socket.
     pub fn start(loaded: LoadedConfig) -> Result<Daemon, StartError> {
         let c = &loaded.config;
+        let runtime = io_runtime()?;
         let parts = Parts {
-            backend: backend::open(c, loaded.dir.as_deref())?,
+            backend: backend::open(c, loaded.dir.as_deref(), runtime.handle())?,
             servo: crate::rt::core_servo::build(c).map_err(StartError::Control)?,
             tracker: crate::rt::core_servo::tracker_factory(c).map_err(StartError::Control)?,
         };
-        Self::start_with(loaded, parts)
+        Self::start_on(loaded, parts, runtime)
     }
 
     /// Start with the given backend, servo and trackers (tests substitute doubles here).
     pub fn start_with(loaded: LoadedConfig, parts: Parts) -> Result<Daemon, StartError> {
+        Self::start_on(loaded, parts, io_runtime()?)
+    }
+
+    fn start_on(
+        loaded: LoadedConfig,
+        parts: Parts,
+        runtime: tokio::runtime::Runtime,
+    ) -> Result<Daemon, StartError> {
         let c = &loaded.config;
         let Parts {
             backend: opened,
@@ -278,11 +296,6 @@ impl Daemon {
             },
         )?;
 
-        let runtime = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(2)
-            .thread_name("pulsetrack-io")
-            .enable_all()
-            .build()?;
         let socket_path = PathBuf::from(&c.console.socket_path);
         let listener = runtime
             .block_on(server::bind(&socket_path))

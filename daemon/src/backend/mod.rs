@@ -3,6 +3,7 @@
 //! simulator from the rig except through [`BackendInfo`].
 
 pub mod clock;
+mod hardware;
 mod sim;
 
 use control::types::{JointState, JointTorques, TactileFrame};
@@ -98,18 +99,15 @@ pub enum OpenError {
     Backend(String),
 }
 
-/// Open the backend the config names. `base_dir` resolves relative scene paths.
+/// Open the backend the config names. `base_dir` resolves relative scene paths; the
+/// hardware drivers run their serial task on `runtime`.
 pub fn open(
     config: &config::Config,
     base_dir: Option<&std::path::Path>,
+    runtime: &tokio::runtime::Handle,
 ) -> Result<Backend, OpenError> {
     match &config.backend {
         config::schema::Backend::Sim(s) => sim::open(config, s, base_dir),
-        config::schema::Backend::Hardware(_) => {
-            let _ = base_dir;
-            Err(OpenError::Backend(
-                "the hardware drivers have not landed in this build".into(),
-            ))
-        }
+        config::schema::Backend::Hardware(hw) => hardware::open(config, hw, runtime),
     }
 }
