@@ -216,3 +216,58 @@ fn sigterm_mid_track_stops_in_control_and_closes_the_recording() {
     assert_eq!(summary["end_reason"], "shutdown");
     assert!(!dir.path().join("console.sock").exists(), "socket removed");
 }
+
+#[test]
+fn a_full_seeded_track_completes_with_the_error_the_sim_gives() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let setup = Setup::default();
+    let (daemon, mut c) = start(dir.path(), &setup);
+    seed(&mut c);
+    let (_, length_m) = e2e::scene(&mut c);
+    call(&mut c, "track", json!({"length_m": length_m}));
+    let ended = wait_event(&mut c, "the end of the trial", |e| {
+        e["event"] == "trial" && e["phase"] == "ended"
+    });
+    let summary = &ended["summary"];
+    assert_eq!(state(&mut c), "done");
+    let config_path = daemon.config.clone();
+    daemon.stop();
+
+    // The same scene, rig and seed in the simulator's lockstep runner: the same control
+    // code with no threads, no sockets and no clock but the simulated one.
+    let cfg = config::load_file::<config::Config>(&config_path)
+        .expect("config")
+        .value;
+    let scene = sim::scene::load(&setup.scene, None).expect("scene");
+    let lockstep = sim::runner::run_trial(&scene, &cfg, &cfg.tracker.name, setup.seed)
+        .expect("lockstep trial");
+    let sd_daemon = summary["lateral_error_m"]["sd"]
+        .as_f64()
+        .expect("daemon sd");
+    let sd_sim = lockstep.lateral_error_m.sd;
+    eprintln!(
+        "daemon: {} points, SD {:.2} mm, {} beats; lockstep: {} points, SD {:.2} mm, {} beats",
+        summary["lateral_error_m"]["n"],
+        sd_daemon * 1e3,
+        summary["beats"],
+        lockstep.lateral_error_m.points,
+        sd_sim * 1e3,
+        lockstep.beats
+    );
+    assert_eq!(summary["completed"], true, "{summary}");
+    assert!(lockstep.completed, "{:?}", lockstep.end_reason);
+    assert_eq!(summary["end_reason"], lockstep.end_reason.as_str());
+    // Threads and a socket shift the tracker's moves by a few cycles, so the two trials are
+    // not bit-identical; their errors must agree to within what the sim's own trial-to-trial
+    // spread allows.
+    assert!(
+        (sd_daemon - sd_sim).abs() <= 0.5 * sd_sim + 0.5e-3,
+        "daemon SD {sd_daemon} m against the simulator's {sd_sim} m"
+    );
+    let beats = summary["beats"].as_f64().expect("beats");
+    let sim_beats = lockstep.beats as f64;
+    assert!(
+        (beats - sim_beats).abs() <= 0.3 * sim_beats + 2.0,
+        "{beats} vs {sim_beats}"
+    );
+}

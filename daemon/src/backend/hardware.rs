@@ -50,9 +50,13 @@ pub fn open(
     runtime: &tokio::runtime::Handle,
 ) -> Result<Backend, OpenError> {
     let clock: Arc<dyn drivers::clock::Clock> = Arc::new(drivers::clock::MonotonicClock::new());
-    let (arm, tactile) =
-        drivers::hardware::open(hw, config.sensor.sample_rate_hz, runtime, Arc::clone(&clock))
-            .map_err(|e| OpenError::Backend(e.to_string()))?;
+    let (arm, tactile) = drivers::hardware::open(
+        hw,
+        config.sensor.sample_rate_hz,
+        runtime,
+        Arc::clone(&clock),
+    )
+    .map_err(|e| OpenError::Backend(e.to_string()))?;
     Ok(Backend {
         arm: Box::new(ArmOnBus { arm, clock }),
         tactile: Box::new(ArrayOnSerial(tactile)),
