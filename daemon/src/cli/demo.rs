@@ -96,15 +96,39 @@ fn run_inner(args: &Args) -> Result<bool, String> {
         "pulsetrack demo: starting pulsetrackd on the simulated bench ({}x real time)",
         args.time_scale
     );
+    let artery = true_path(&loaded);
     let daemon = Daemon::start(loaded).map_err(|e| e.to_string())?;
-    let result = drive(&daemon, &out, wall0);
+    let result = drive(&daemon, &out, wall0, &artery);
     let stopped = daemon.shutdown();
     let _ = std::fs::remove_dir(socket_dir());
     stopped.map_err(|e| format!("daemon shutdown: {e}"))?;
     result
 }
 
-fn drive(daemon: &Daemon, out: &Path, wall0: Instant) -> Result<bool, String> {
+/// The scene's true artery path, sampled every millimetre, for the top view (mm).
+fn true_path(loaded: &LoadedConfig) -> Vec<(f64, f64)> {
+    let config::schema::Backend::Sim(s) = &loaded.config.backend else {
+        return Vec::new();
+    };
+    let Ok(scene) = sim::scene::load(&s.scene, loaded.dir.as_deref()) else {
+        return Vec::new();
+    };
+    sim::scene::ArteryPath::from_spec(&scene.artery.path)
+        .map(|p| {
+            p.sample(0.001)
+                .iter()
+                .map(|q| (q.x_m * 1e3, q.z_m * 1e3))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn drive(
+    daemon: &Daemon,
+    out: &Path,
+    wall0: Instant,
+    artery: &[(f64, f64)],
+) -> Result<bool, String> {
     let mut c = Client::connect(daemon.socket_path(), T).map_err(|e| e.to_string())?;
     println!(
         "console:  {} (protocol {})",
@@ -186,7 +210,7 @@ fn drive(daemon: &Daemon, out: &Path, wall0: Instant) -> Result<bool, String> {
     print_summary(&summary);
     println!("wall time  {:.1} s", wall0.elapsed().as_secs_f64());
     let plots = out.join("plots");
-    match write_plots(&summary, &plots) {
+    match write_plots(&summary, &plots, artery) {
         Ok(n) => println!("plots      {} ({n} charts, PNG and SVG)", plots.display()),
         Err(e) => println!("plots      not written: {e}"),
     }
@@ -262,7 +286,7 @@ fn wait_mark(c: &mut Client) -> Result<bool, String> {
 }
 
 /// Top view, lateral error against distance, and a 4 s trace of all ten elements.
-fn write_plots(summary: &Value, dir: &Path) -> Result<usize, String> {
+fn write_plots(summary: &Value, dir: &Path, artery: &[(f64, f64)]) -> Result<usize, String> {
     use crate::plot::{Chart, Mark, Series, write_chart};
     let recording = summary["recording"].as_str().ok_or("no recording")?;
     let back = recover::read(Path::new(recording)).map_err(|e| e.to_string())?;
@@ -296,6 +320,13 @@ fn write_plots(summary: &Value, dir: &Path) -> Result<usize, String> {
             ))
         })
         .collect();
+    if !artery.is_empty() {
+        top = top.with(Series::new(
+            "artery (true path)",
+            artery.to_vec(),
+            Mark::Line,
+        ));
+    }
     if !truth.is_empty() {
         top = top.with(Series::new("sensor centre (true)", truth, Mark::Line));
     }
