@@ -17,6 +17,12 @@ fn verbs_in_the_wrong_state_are_refused_and_bad_lines_get_errors() {
     let dir = tempfile::tempdir().expect("tmp");
     let (daemon, mut c) = start(dir.path(), &Setup::default());
     assert_eq!(c.hello["hello"], "pulsetrackd");
+    use std::os::unix::fs::PermissionsExt;
+    let mode = std::fs::metadata(&daemon.socket)
+        .expect("socket")
+        .permissions()
+        .mode();
+    assert_eq!(mode & 0o777, 0o660, "socket mode {mode:o}");
     assert_eq!(c.hello["protocol"], 1);
     for (verb, args, why) in [
         (

@@ -101,11 +101,12 @@ fn peer_allowed(stream: &UnixStream, s: &ServerSettings) -> Result<(), String> {
     let cred = stream
         .peer_cred()
         .map_err(|e| format!("cannot read peer credentials: {e}"))?;
-    let (uid, gid) = (cred.uid(), cred.gid());
-    if uid == 0
-        || uid == crate::rt::os::effective_uid()
-        || s.allowed_uids.contains(&uid)
-        || s.allowed_gids.contains(&gid)
+    admit_peer(cred.uid(), cred.gid(), crate::rt::os::effective_uid(), s)
+}
+
+/// Root, the daemon's own user, and the configured users and groups may connect.
+fn admit_peer(uid: u32, gid: u32, own_uid: u32, s: &ServerSettings) -> Result<(), String> {
+    if uid == 0 || uid == own_uid || s.allowed_uids.contains(&uid) || s.allowed_gids.contains(&gid)
     {
         Ok(())
     } else {
@@ -365,6 +366,33 @@ mod tests {
             }
         }
         assert_eq!(got, vec!["short", "too long 25", "ok", "no-newline"]);
+    }
+
+    #[test]
+    fn peers_are_admitted_by_uid_and_gid_allow_lists() {
+        let s = ServerSettings {
+            socket_path: PathBuf::from("/tmp/x.sock"),
+            allowed_uids: vec![1001],
+            allowed_gids: vec![2000],
+            max_line_bytes: 1024,
+            max_requests_per_s: 10.0,
+            max_clients: 4,
+            limits: ParseLimits {
+                max_jog_m: 0.01,
+                max_speed_m_s: 0.03,
+                max_coordinate_m: 1.0,
+                max_track_length_m: 2.0,
+            },
+            backend_kind: "sim",
+            reply_timeout: Duration::from_secs(1),
+        };
+        let own = 990;
+        assert!(admit_peer(0, 0, own, &s).is_ok());
+        assert!(admit_peer(own, 5, own, &s).is_ok());
+        assert!(admit_peer(1001, 5, own, &s).is_ok());
+        assert!(admit_peer(1500, 2000, own, &s).is_ok());
+        let e = admit_peer(1500, 1500, own, &s).expect_err("stranger");
+        assert!(e.contains("uid 1500 gid 1500 is not allowed"), "{e}");
     }
 
     #[test]
