@@ -1,6 +1,7 @@
 //! The `pulsetrack` command line: one module per subcommand.
 
 mod check_config;
+mod fem;
 
 use std::process::ExitCode;
 
@@ -21,11 +22,14 @@ struct Cli {
 enum Command {
     /// Check a configuration or scene file and report every problem with file, line and field.
     CheckConfig(check_config::Args),
+    /// Run the tissue FEM: the seed papers' studies or one model file.
+    Fem(fem::Args),
 }
 
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::CheckConfig(args) => check_config::run(&args),
+        Command::Fem(args) => fem::run(&args),
     }
 }

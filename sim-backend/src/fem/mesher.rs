@@ -158,8 +158,8 @@ fn estimate_guard(nx: usize, ny: usize) -> Result<(), MeshError> {
 /// A block with no feature: a uniform tensor grid at the near size (the tissue-only model
 /// must resolve the same surface as the others).
 fn plain_block(w: f64, h: f64, d: &Density) -> Result<Mesh, MeshError> {
-    let nx = ((w / d.near_size_m.max(d.far_size_m * 0.25)).ceil() as usize).max(2);
-    let ny = ((h / d.near_size_m.max(d.far_size_m * 0.25)).ceil() as usize).max(2);
+    let nx = ((w / d.near_size_m.max(d.far_size_m * 0.5)).ceil() as usize).max(2);
+    let ny = ((h / d.near_size_m.max(d.far_size_m * 0.5)).ceil() as usize).max(2);
     estimate_guard(nx + 1, ny + 1)?;
     let xs: Vec<f64> = (0..=nx).map(|i| w * i as f64 / nx as f64).collect();
     let ys: Vec<f64> = (0..=ny).map(|j| h * j as f64 / ny as f64).collect();

@@ -8,10 +8,15 @@
 //! It also produces the surface pressure kernel the simulator can use instead of the analytic
 //! one. See docs/fem.md.
 
+pub mod contact;
 pub mod element;
+pub mod finite;
 pub mod linear;
 pub mod material;
 pub mod mesh;
 pub mod mesher;
+pub mod model;
 pub mod recovery;
+pub mod run;
 pub mod sparse;
+pub mod study;
