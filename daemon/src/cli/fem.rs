@@ -184,7 +184,7 @@ fn print_seed_002(s: &Seed002) {
         println!("\nsweep {} ({}):", sw.name, sw.label);
         println!(
             "{:>10} {:>22} {:>16}",
-            "value", "swing (sys - dia) kPa", "peak (sys) kPa"
+            "value", "swing at x=0 (kPa)", "peak (sys) kPa"
         );
         for p in &sw.points {
             let sys_peak = p.run.times.last().map_or(f64::NAN, |t| t.summary.peak);
@@ -281,7 +281,7 @@ fn plot_seed_002(dir: &Path, s: &Seed002) -> Result<(), String> {
         let c = Chart::new(
             format!("systolic - diastolic top von Mises against {}", sw.label),
             sw.label,
-            "peak swing (kPa)",
+            "swing over the artery (kPa)",
         )
         .with(Series::new(
             "swing",

@@ -11,6 +11,7 @@
 pub mod contact;
 pub mod element;
 pub mod finite;
+pub mod kernel;
 pub mod linear;
 pub mod material;
 pub mod mesh;

@@ -41,6 +41,9 @@ pub struct ModelFile {
     #[serde(default)]
     pub feature: Option<FeatureSpec>,
     pub load: Load,
+    /// The bottom's support (default: held in y, as in both papers).
+    #[serde(default)]
+    pub bottom: Bottom,
     #[serde(default)]
     pub lumen: Option<LumenPressure>,
     /// Output times, s (default: just t = 0).
@@ -91,6 +94,17 @@ pub struct LayerSpec {
     /// Radial thickness (the radius for a solid core).
     pub thickness_m: f64,
     pub material: Material,
+}
+
+/// How the bottom edge is supported.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Bottom {
+    /// Held in y, free in x (a frictionless table).
+    #[default]
+    Held,
+    /// Traction-free: the block hangs from a platen (the kernel's half-space stand-in, whose
+    /// surface then carries zero net force, as a half-space's does).
+    Free,
 }
 
 /// How the top surface is loaded.

@@ -2,7 +2,8 @@
 //! the top-edge stresses.
 //!
 //! Supports (both papers): the bottom is held in y, one bottom node below the feature is held
-//! in x (removing the rigid drift; by symmetry it carries no load).
+//! in x (removing the rigid drift; by symmetry it carries no load). The kernel's model leaves
+//! the bottom free and anchors a top node instead.
 
 use std::time::Instant;
 
@@ -14,7 +15,7 @@ use super::linear::{LinearModel, Timings};
 use super::material::von_mises;
 use super::mesh::Mesh;
 use super::mesher::{MeshError, mesh_block};
-use super::model::{Kinematics, Load, ModelFile};
+use super::model::{Bottom, Kinematics, Load, ModelFile};
 use super::recovery::{CurveSummary, summarize};
 use super::sparse::SolveError;
 
@@ -85,11 +86,16 @@ impl ModelRun {
 pub fn supports(mesh: &Mesh, model: &ModelFile) -> (Vec<bool>, Vec<f64>) {
     let mut fixed = vec![false; mesh.dofs()];
     let mut pres = vec![0.0; mesh.dofs()];
-    for &n in &mesh.bottom {
-        fixed[2 * n as usize + 1] = true;
+    let held = model.bottom == Bottom::Held;
+    if held {
+        for &n in &mesh.bottom {
+            fixed[2 * n as usize + 1] = true;
+        }
     }
+    // One node in x against rigid drift: below the feature, or above it if the bottom is free.
     let x0 = model.x_origin_m();
-    if let Some(&anchor) = mesh.bottom.iter().min_by(|&&a, &&b| {
+    let row = if held { &mesh.bottom } else { &mesh.top };
+    if let Some(&anchor) = row.iter().min_by(|&&a, &&b| {
         let da = (mesh.nodes[a as usize][0] - x0).abs();
         let db = (mesh.nodes[b as usize][0] - x0).abs();
         da.total_cmp(&db)
