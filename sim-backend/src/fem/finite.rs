@@ -219,7 +219,7 @@ pub struct FiniteModel<'m> {
     pub analysis: Analysis,
     elements: Vec<Q4>,
     pattern: Pattern,
-    symbolic: faer::sparse::linalg::solvers::SymbolicLlt<usize>,
+    symbolic: super::sparse::Symbolic,
 }
 
 /// Newton settings.

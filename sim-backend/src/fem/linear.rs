@@ -3,7 +3,6 @@
 
 use std::time::Instant;
 
-use faer::sparse::linalg::solvers::SymbolicLlt;
 use rayon::prelude::*;
 
 use super::element::Q4;
@@ -26,9 +25,8 @@ pub struct LinearModel<'m> {
     pub mesh: &'m Mesh,
     pub materials: Vec<Material>,
     pub analysis: Analysis,
-    pub elements: Vec<Q4>,
     pub pattern: Pattern,
-    pub symbolic: SymbolicLlt<usize>,
+    pub symbolic: super::sparse::Symbolic,
     pub values: Vec<f64>,
     pub timings: Timings,
 }
@@ -43,24 +41,24 @@ impl<'m> LinearModel<'m> {
         let t0 = Instant::now();
         let pattern = Pattern::new(mesh)?;
         let t1 = Instant::now();
-        let elements: Vec<Q4> = (0..mesh.elements.len())
+        // Element matrices straight from the coordinates: keeping per-element geometry for
+        // a 300k-DOF mesh would cost 140 MB of memory traffic for nothing.
+        let ke: Vec<[f64; 36]> = (0..mesh.elements.len())
             .into_par_iter()
-            .map(|e| Q4::new(&mesh.element_coords(e)).map_err(|_| SolveError::BadElement(e)))
-            .collect::<Result<_, _>>()?;
-        let ke: Vec<[f64; 36]> = elements
-            .par_iter()
-            .zip(mesh.region.par_iter())
-            .map(|(q, &r)| q.stiffness_upper(&materials[r as usize], analysis))
-            .collect();
+            .map(|e| {
+                let q = Q4::new(&mesh.element_coords(e)).map_err(|_| SolveError::BadElement(e))?;
+                Ok(q.stiffness_upper(&materials[mesh.region[e] as usize], analysis))
+            })
+            .collect::<Result<_, SolveError>>()?;
         let values = pattern.assemble(&ke);
         let t2 = Instant::now();
+
         let symbolic = pattern.symbolic()?;
         let t3 = Instant::now();
         Ok(Self {
             mesh,
             materials: materials.to_vec(),
             analysis,
-            elements,
             pattern,
             symbolic,
             values,
@@ -85,7 +83,11 @@ impl<'m> LinearModel<'m> {
             ue[i] = u[k];
         }
         let m = &self.materials[self.mesh.region[e] as usize];
-        self.elements[e].stresses(m, self.analysis, &ue)
+        // Elements were checked when K was assembled.
+        match Q4::new(&self.mesh.element_coords(e)) {
+            Ok(q) => q.stresses(m, self.analysis, &ue),
+            Err(_) => [[f64::NAN; 4]; 4],
+        }
     }
 
     /// Recovered stresses at the top nodes.

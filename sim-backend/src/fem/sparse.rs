@@ -5,13 +5,25 @@
 //! diagonal, so the sparsity pattern never changes: one symbolic factorization serves every
 //! load case, every contact active set and every Newton iteration on the same mesh.
 
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use std::sync::Arc;
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::perm::PermRef;
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky,
+};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
-use faer::{MatMut, Side};
+use faer::{Conj, MatMut, Par, Side};
 use rayon::prelude::*;
 
 use super::mesh::Mesh;
+use super::ordering::nested_dissection;
+
+/// The symbolic factorization (ordering, elimination tree, supernodes), shared by every
+/// numeric factorization on one mesh.
+pub type Symbolic = Arc<SymbolicCholesky<usize>>;
 
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum SolveError {
@@ -39,6 +51,9 @@ pub struct Pattern {
     /// slots[e][i] for the i-th (p <= q) pair of element e's local DOFs.
     pub slots: Vec<[u32; 36]>,
     symbolic: SymbolicSparseColMat<usize>,
+    /// Nested-dissection order of the DOFs and its inverse.
+    perm_fwd: Vec<usize>,
+    perm_inv: Vec<usize>,
 }
 
 fn local_dofs(el: &[u32; 4]) -> [usize; 8] {
@@ -110,12 +125,23 @@ impl Pattern {
             .collect();
         let symbolic =
             SymbolicSparseColMat::new_checked(n, n, col_ptr.clone(), None, row_idx.clone());
+        let node_order = nested_dissection(&mesh.nodes, &adj);
+        let perm_fwd: Vec<usize> = node_order
+            .iter()
+            .flat_map(|&a| [2 * a as usize, 2 * a as usize + 1])
+            .collect();
+        let mut perm_inv = vec![0; n];
+        for (k, &i) in perm_fwd.iter().enumerate() {
+            perm_inv[i] = k;
+        }
         Ok(Self {
             n,
             col_ptr,
             row_idx,
             slots,
             symbolic,
+            perm_fwd,
+            perm_inv,
         })
     }
 
@@ -150,10 +176,18 @@ impl Pattern {
         y
     }
 
-    /// Symbolic Cholesky (fill-reducing ordering, elimination tree), computed once per mesh.
-    pub fn symbolic(&self) -> Result<SymbolicLlt<usize>, SolveError> {
-        SymbolicLlt::try_new(self.symbolic.as_ref(), Side::Lower)
-            .map_err(|e| SolveError::Factor(format!("{e:?}")))
+    /// Symbolic Cholesky (nested-dissection ordering, elimination tree, supernodes),
+    /// computed once per mesh.
+    pub fn symbolic(&self) -> Result<Symbolic, SolveError> {
+        let perm = PermRef::new_checked(&self.perm_fwd, &self.perm_inv, self.n);
+        factorize_symbolic_cholesky(
+            self.symbolic.as_ref(),
+            Side::Lower,
+            SymmetricOrdering::Custom(perm),
+            CholeskySymbolicParams::default(),
+        )
+        .map(Arc::new)
+        .map_err(|e| SolveError::Factor(format!("{e:?}")))
     }
 }
 
@@ -166,14 +200,15 @@ pub struct Constrained<'p> {
     fixed: Vec<bool>,
     /// Diagonal kept on the fixed DOFs (scale of the identity rows).
     diag: Vec<f64>,
-    llt: Llt<usize, f64>,
+    symbolic: Symbolic,
+    factor: Vec<f64>,
 }
 
 impl<'p> Constrained<'p> {
     /// Factor K with the DOFs flagged in `fixed` prescribed.
     pub fn new(
         pattern: &'p Pattern,
-        symbolic: &SymbolicLlt<usize>,
+        symbolic: &Symbolic,
         values: &'p [f64],
         fixed: &[bool],
     ) -> Result<Self, SolveError> {
@@ -194,19 +229,34 @@ impl<'p> Constrained<'p> {
             }
         }
         let mat = SparseColMatRef::new(pattern.symbolic.as_ref(), &mv);
-        let llt =
-            Llt::try_new_with_symbolic(symbolic.clone(), mat, Side::Lower).map_err(
-                |e| match e {
-                    faer::sparse::linalg::LltError::Numeric(_) => SolveError::NotPositiveDefinite,
-                    other => SolveError::Factor(format!("{other:?}")),
-                },
-            )?;
+        let mut factor = Vec::new();
+        factor
+            .try_reserve_exact(symbolic.len_val())
+            .map_err(|_| SolveError::Factor("out of memory for the factor".into()))?;
+        factor.resize(symbolic.len_val(), 0.0);
+        let par = Par::Seq;
+        let mut mem = MemBuffer::try_new(
+            symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+        )
+        .map_err(|_| SolveError::Factor("out of memory for the workspace".into()))?;
+        symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut factor,
+                mat,
+                Side::Lower,
+                LltRegularization::default(),
+                par,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|_| SolveError::NotPositiveDefinite)?;
         Ok(Self {
             pattern,
             values,
             fixed: fixed.to_vec(),
             diag,
-            llt,
+            symbolic: Arc::clone(symbolic),
+            factor,
         })
     }
 
@@ -233,8 +283,14 @@ impl<'p> Constrained<'p> {
                 rhs[i] = self.diag[i] * prescribed[i];
             }
         }
-        self.llt
-            .solve_in_place(MatMut::from_column_major_slice_mut(&mut rhs, p.n, 1));
+        let par = Par::Seq;
+        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(1, par));
+        LltRef::<'_, usize, f64>::new(&self.symbolic, &self.factor).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(&mut rhs, p.n, 1),
+            par,
+            MemStack::new(&mut mem),
+        );
         if rhs.iter().any(|v| !v.is_finite()) {
             return Err(SolveError::NonFinite);
         }
