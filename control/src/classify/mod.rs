@@ -14,6 +14,8 @@
 //! drown in. Everything is fixed-size arrays: [`Window::push`] and [`Window::classify`] never
 //! allocate.
 
+#![allow(clippy::needless_range_loop)] // index loops read like the formulas
+
 use serde::{Deserialize, Serialize};
 
 use crate::types::{ELEMENTS, TactileFrame};
@@ -337,7 +339,7 @@ fn dominant_eigen(a: &[[f64; ELEMENTS]; ELEMENTS]) -> (f64, [f64; ELEMENTS]) {
             }
         }
         let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if !(norm > 0.0) || !norm.is_finite() {
+        if norm.is_nan() || norm <= 0.0 || !norm.is_finite() {
             return (0.0, v);
         }
         for x in &mut w {

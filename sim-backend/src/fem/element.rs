@@ -44,7 +44,7 @@ pub fn shape_grad(x: &[[f64; 2]; 4], xi: f64, eta: f64) -> Option<ShapeGrad> {
     }
     // j[r][c] = d x_r / d ξ_c
     let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-    if !(det > 0.0) || !det.is_finite() {
+    if det.is_nan() || det <= 0.0 || !det.is_finite() {
         return None;
     }
     let inv = [

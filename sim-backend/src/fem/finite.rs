@@ -411,13 +411,16 @@ impl<'m> FiniteModel<'m> {
     }
 }
 
+/// Time and recovered top Cauchy stresses (σxx, σyy, σxy, σzz) per top node.
+pub type TopState = (f64, Vec<[f64; 4]>);
+
 /// Solve a model in finite strain: ramp the platen and the first time's lumen pressure from
 /// zero in `steps` increments, then follow the pressure through the output times.
 pub fn solve_times(
     model: &ModelFile,
     mesh: &Mesh,
     steps: u32,
-) -> Result<Vec<(f64, Vec<[f64; 4]>)>, SolveError> {
+) -> Result<Vec<TopState>, SolveError> {
     let fm = FiniteModel::new(mesh, &model.materials(), model.analysis)?;
     let (fixed, target) = supports(mesh, model);
     let unit = mesh.lumen_pressure_forces(1.0);

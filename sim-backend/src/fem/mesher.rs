@@ -245,7 +245,7 @@ fn feature_block(w: f64, h: f64, f: &Feature, d: &Density) -> Result<Mesh, MeshE
         prev = l.outer_radius_m;
         radii.push(prev);
     }
-    if f.layers.is_empty() || !(radii[0] > 0.0) {
+    if f.layers.is_empty() || radii[0].is_nan() || radii[0] <= 0.0 {
         return Err(MeshError::BadLayers);
     }
     let r_out = prev;

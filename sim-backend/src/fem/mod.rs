@@ -8,6 +8,8 @@
 //! It also produces the surface pressure kernel the simulator can use instead of the analytic
 //! one. See docs/fem.md.
 
+#![allow(clippy::needless_range_loop)] // index loops read like the formulas
+
 pub mod contact;
 pub mod element;
 pub mod finite;

@@ -219,7 +219,7 @@ impl<'p> Constrained<'p> {
                 let row = pattern.row_idx[k];
                 if row == col {
                     diag[col] = values[k];
-                    if fixed[col] && !(values[k] > 0.0) {
+                    if fixed[col] && (values[k].is_nan() || values[k] <= 0.0) {
                         mv[k] = 1.0;
                         diag[col] = 1.0;
                     }
