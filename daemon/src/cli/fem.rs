@@ -22,7 +22,7 @@ pub enum StudyName {
 }
 
 #[derive(Debug, clap::Args)]
-#[command(group(clap::ArgGroup::new("what").required(true).args(["study", "model"])))]
+#[command(group(clap::ArgGroup::new("what").required(true).args(["study", "model", "kernel_table"])))]
 pub struct Args {
     /// Run a paper's study: seed-001 (Table 1) or seed-002 (sweeps and tip shapes).
     #[arg(long, value_enum)]
@@ -43,6 +43,10 @@ pub struct Args {
     /// Solve the platen models in finite strain (compressible neo-Hookean) instead of linear.
     #[arg(long)]
     pub finite_strain: bool,
+    /// Compare the FEM surface-pressure kernel with the analytic one for small tubes and the
+    /// seed's 5 mm latex tube (docs/fem.md).
+    #[arg(long)]
+    pub kernel_table: bool,
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -60,6 +64,9 @@ fn execute(args: &Args) -> Result<(), String> {
         refine: args.refine,
         finite_strain: args.finite_strain,
     };
+    if args.kernel_table {
+        return kernel_table(args.refine);
+    }
     if let Some(path) = &args.model {
         let loaded = config::load_file::<ModelFile>(path).map_err(|e| e.to_string())?;
         let mut model = loaded.value;
@@ -323,5 +330,58 @@ fn plot_seed_002(dir: &Path, s: &Seed002) -> Result<(), String> {
         }
     }
     write_chart(&c, dir, "tips").map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+fn kernel_table(refine: u32) -> Result<(), String> {
+    use sim::fem::kernel::{KernelParams, analytic_per_pa, compute};
+    use sim::fem::material::Material;
+    let soft = Material::new(20e3, 0.45);
+    let cases: [(&str, f64, f64, Material, f64); 7] = [
+        ("hole a=0.25 mm", 0.00025, 0.0, soft, 0.005),
+        ("hole a=0.5 mm", 0.0005, 0.0, soft, 0.005),
+        ("hole a=1.5 mm (seed size)", 0.0015, 0.0, soft, 0.005),
+        ("IMA 2.7 mm, 0.3 mm wall 400 kPa", 0.00135, 0.0003, Material::new(400e3, 0.49), 0.005),
+        ("radial 2.7 mm, 0.3 mm wall 400 kPa, 4 mm", 0.00135, 0.0003, Material::new(400e3, 0.49), 0.004),
+        ("seed latex 5 mm OD, 1 mm wall 1.5 MPa", 0.0015, 0.001, Material::new(1.5e6, 0.49), 0.005),
+        ("seed tube, wall as soft as the foam", 0.0015, 0.001, soft, 0.005),
+    ];
+    println!("tissue E = 20 kPa, nu = 0.45, plane strain; kernel = surface pressure per Pa of lumen pressure");
+    println!(
+        "{:<42} {:>6} {:>10} {:>10} {:>7} {:>10} {:>10} {:>9} {:>7}",
+        "tube", "h mm", "fem p(0)", "analytic", "ratio", "fem p(h)", "fem min", "x_min mm", "net"
+    );
+    for (name, a, t, wall, h) in cases {
+        let p = KernelParams {
+            tissue: soft,
+            lumen_radius_m: a,
+            wall_thickness_m: t,
+            wall,
+            centre_depth_m: h,
+            refine,
+        };
+        let k = compute(&p).map_err(|e| e.to_string())?;
+        let (mut min, mut x_min) = (f64::INFINITY, 0.0);
+        for (x, v) in k.x_m.iter().zip(&k.pressure_per_pa) {
+            if *x >= 0.0 && *v < min {
+                min = *v;
+                x_min = *x;
+            }
+        }
+        let an = analytic_per_pa(0.0, a, h);
+        println!(
+            "{:<42} {:>6.1} {:>10.5} {:>10.5} {:>7.3} {:>10.5} {:>10.5} {:>9.2} {:>7.4}",
+            name,
+            h * 1e3,
+            k.at(0.0),
+            an,
+            k.at(0.0) / an,
+            k.at(h),
+            min,
+            x_min * 1e3,
+            k.net_force_m() / k.total_magnitude_m()
+        );
+    }
+    println!("analytic: p(h) = 0, min -{:.4} x p(0) at x = sqrt(3) h", 1.0 / 8.0);
     Ok(())
 }

@@ -259,7 +259,14 @@ fn feature_block(w: f64, h: f64, f: &Feature, d: &Density) -> Result<Mesh, MeshE
             room_m: room,
         });
     }
-    let half = (BOX_FACTOR * r_out).min(room);
+    // Keep a band of tensor-grid rows between the box and the block's edges when there is
+    // room: the O-grid's skewed corner elements then never touch the surface where the
+    // stresses are read.
+    let half = if 0.85 * room >= MIN_BOX_FACTOR * r_out {
+        (BOX_FACTOR * r_out).min(0.85 * room)
+    } else {
+        room
+    };
 
     // Segments per box side (a quarter of the circumference); even for symmetry.
     let mut nq = ((std::f64::consts::FRAC_PI_2 * r_out / d.near_size_m).ceil() as usize).max(4);
