@@ -341,12 +341,38 @@ fn kernel_table(refine: u32) -> Result<(), String> {
         ("hole a=0.25 mm", 0.00025, 0.0, soft, 0.005),
         ("hole a=0.5 mm", 0.0005, 0.0, soft, 0.005),
         ("hole a=1.5 mm (seed size)", 0.0015, 0.0, soft, 0.005),
-        ("IMA 2.7 mm, 0.3 mm wall 400 kPa", 0.00135, 0.0003, Material::new(400e3, 0.49), 0.005),
-        ("radial 2.7 mm, 0.3 mm wall 400 kPa, 4 mm", 0.00135, 0.0003, Material::new(400e3, 0.49), 0.004),
-        ("seed latex 5 mm OD, 1 mm wall 1.5 MPa", 0.0015, 0.001, Material::new(1.5e6, 0.49), 0.005),
-        ("seed tube, wall as soft as the foam", 0.0015, 0.001, soft, 0.005),
+        (
+            "IMA 2.7 mm, 0.3 mm wall 400 kPa",
+            0.00135,
+            0.0003,
+            Material::new(400e3, 0.49),
+            0.005,
+        ),
+        (
+            "radial 2.7 mm, 0.3 mm wall 400 kPa, 4 mm",
+            0.00135,
+            0.0003,
+            Material::new(400e3, 0.49),
+            0.004,
+        ),
+        (
+            "seed latex 5 mm OD, 1 mm wall 1.5 MPa",
+            0.0015,
+            0.001,
+            Material::new(1.5e6, 0.49),
+            0.005,
+        ),
+        (
+            "seed tube, wall as soft as the foam",
+            0.0015,
+            0.001,
+            soft,
+            0.005,
+        ),
     ];
-    println!("tissue E = 20 kPa, nu = 0.45, plane strain; kernel = surface pressure per Pa of lumen pressure");
+    println!(
+        "tissue E = 20 kPa, nu = 0.45, plane strain; kernel = surface pressure per Pa of lumen pressure"
+    );
     println!(
         "{:<42} {:>6} {:>10} {:>10} {:>7} {:>10} {:>10} {:>9} {:>7}",
         "tube", "h mm", "fem p(0)", "analytic", "ratio", "fem p(h)", "fem min", "x_min mm", "net"
@@ -382,6 +408,9 @@ fn kernel_table(refine: u32) -> Result<(), String> {
             k.net_force_m() / k.total_magnitude_m()
         );
     }
-    println!("analytic: p(h) = 0, min -{:.4} x p(0) at x = sqrt(3) h", 1.0 / 8.0);
+    println!(
+        "analytic: p(h) = 0, min -{:.4} x p(0) at x = sqrt(3) h",
+        1.0 / 8.0
+    );
     Ok(())
 }

@@ -19,7 +19,6 @@ pub mod material;
 pub mod mesh;
 pub mod mesher;
 pub mod model;
-pub mod ordering;
 pub mod recovery;
 pub mod run;
 pub mod sparse;
