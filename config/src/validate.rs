@@ -28,6 +28,11 @@ impl Validator {
         self.problems
     }
 
+    /// Problems found so far: lets a section skip checks that need its fields to be sane.
+    pub fn problem_count(&self) -> usize {
+        self.problems.len()
+    }
+
     fn path(&self, field: &str) -> String {
         let mut p = self.prefix.join(".");
         if !field.is_empty() {

@@ -76,6 +76,11 @@ impl TissuePlacement {
     pub fn direction_to_base(&self, v_tissue: &Vector3<f64>) -> Vector3<f64> {
         self.rotation() * v_tissue
     }
+
+    /// A robot-base-frame direction expressed in the tissue frame.
+    pub fn direction_to_tissue(&self, v_base: &Vector3<f64>) -> Vector3<f64> {
+        self.rotation().inverse() * v_base
+    }
 }
 
 #[cfg(test)]
@@ -100,5 +105,6 @@ mod tests {
         };
         let v = quarter.direction_to_base(&Vector3::x());
         assert!((v - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-15);
+        assert!((quarter.direction_to_tissue(&v) - Vector3::x()).norm() < 1e-15);
     }
 }

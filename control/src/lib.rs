@@ -14,6 +14,7 @@ pub mod motion;
 pub mod pd;
 pub mod ports;
 pub mod sensor;
+pub mod signal;
 pub mod staleness;
 pub mod tracker;
 pub mod types;

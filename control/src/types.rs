@@ -31,6 +31,30 @@ impl JointState {
     }
 }
 
+/// Where the joint loop should hold the arm now: positions and the rates to follow.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct JointSetpoint {
+    /// θ1, θ2, θ3, rad.
+    pub position_rad: Joints,
+    /// Feed-forward joint rates, rad/s.
+    pub velocity_rad_s: Joints,
+}
+
+impl JointSetpoint {
+    /// Hold still at `position_rad`.
+    pub const fn at_rest(position_rad: Joints) -> Self {
+        Self {
+            position_rad,
+            velocity_rad_s: [0.0; JOINTS],
+        }
+    }
+
+    pub fn is_finite(&self) -> bool {
+        self.position_rad.iter().all(|v| v.is_finite())
+            && self.velocity_rad_s.iter().all(|v| v.is_finite())
+    }
+}
+
 /// Joint torque command, N·m at the joint (after the capstan).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct JointTorques {

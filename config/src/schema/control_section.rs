@@ -42,7 +42,8 @@ impl Validate for ControlSection {
             v.positive("accel_m_s2", m.accel_m_s2);
             v.positive("settle_tolerance_m", m.settle_tolerance_m);
             v.positive("settle_speed_m_s", m.settle_speed_m_s);
-            v.positive("settle_timeout_s", m.settle_timeout_s);
+            v.in_range("contact_height_m", m.contact_height_m, -0.02, 0.02);
+            v.non_negative("settle_timeout_s", m.settle_timeout_s);
         });
     }
 }

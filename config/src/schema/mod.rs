@@ -12,7 +12,9 @@ mod tracker_section;
 
 use serde::{Deserialize, Serialize};
 
-pub use backend::{Backend, CanJoints, HardwareBackend, SerialTactile, SimBackend};
+pub use backend::{
+    Backend, CanAdapter, CanJoints, HardwareBackend, SLCAN_BITRATES, SerialTactile, SimBackend,
+};
 pub use control_section::ControlSection;
 pub use daemon_sections::{ConsoleSection, RecordingSection, SafetySection};
 pub use robot::RobotSection;
@@ -59,6 +61,9 @@ impl Validate for Config {
         v.section("control", &self.control);
         v.section("sensor", &self.sensor);
         v.section("tracker", &self.tracker);
+        v.at("tracker", |v| {
+            self.tracker.validate_with_sensor(&self.sensor, v)
+        });
         v.section("safety", &self.safety);
         v.section("console", &self.console);
         v.section("recording", &self.recording);

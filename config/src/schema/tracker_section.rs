@@ -1,6 +1,7 @@
 //! Which tracker runs, and every tracker's constants.
 
-use control::tracker::TrackerParams;
+use control::sensor::ArrayGeometry;
+use control::tracker::{BuildError, TRACKER_NAMES, TrackerParams, build};
 use serde::{Deserialize, Serialize};
 
 use crate::validate::{Validate, Validator};
@@ -24,15 +25,50 @@ impl Default for TrackerSection {
 
 impl Validate for TrackerSection {
     fn validate(&self, v: &mut Validator) {
-        v.check(!self.name.trim().is_empty(), "name", "must name a tracker");
+        v.check(
+            TRACKER_NAMES.contains(&self.name.as_str()),
+            "name",
+            format!(
+                "unknown tracker `{}`; known trackers: {}",
+                self.name,
+                TRACKER_NAMES.join(", ")
+            ),
+        );
         v.at("params", |v| v.section("seed2002", &self.params.seed2002));
     }
 }
 
+impl TrackerSection {
+    /// Checks that need the sensor as well (the band against the sample rate, windows in
+    /// samples): the tracker must be buildable. Run only once the section alone is valid,
+    /// so that a problem is not reported twice.
+    pub fn validate_with_sensor(&self, sensor: &ArrayGeometry, v: &mut Validator) {
+        let mut alone = Validator::new();
+        self.validate(&mut alone);
+        let mut sensor_alone = Validator::new();
+        sensor.validate(&mut sensor_alone);
+        if !alone.into_problems().is_empty() || !sensor_alone.into_problems().is_empty() {
+            return;
+        }
+        match build(&self.name, &self.params, sensor) {
+            Ok(_) => {}
+            Err(BuildError::Unknown(e)) => v.problem("name", e.to_string()),
+            Err(BuildError::Seed2002(e)) => v.problem(
+                "params.seed2002",
+                format!("{e} (with the sensor's {} Hz)", sensor.sample_rate_hz),
+            ),
+        }
+    }
+}
+
+/// Longest acquisition window accepted, s.
+const MAX_WINDOW_S: f64 = 60.0;
+
 impl Validate for control::tracker::seed2002::Seed2002Params {
     fn validate(&self, v: &mut Validator) {
-        v.positive("first_window_s", self.first_window_s);
-        v.positive("window_s", self.window_s);
+        // Two complete pulses at the slowest period need more than a second.
+        v.in_range("first_window_s", self.first_window_s, 1.0, MAX_WINDOW_S);
+        v.in_range("window_s", self.window_s, 1.0, MAX_WINDOW_S);
         v.positive("band_low_hz", self.band_low_hz);
         v.positive("band_high_hz", self.band_high_hz);
         v.check(
@@ -41,37 +77,132 @@ impl Validate for control::tracker::seed2002::Seed2002Params {
             "must exceed band_low_hz",
         );
         v.check(
-            (2..=1024).contains(&self.fir_order),
+            (2..=1024).contains(&self.fir_order) && self.fir_order.is_multiple_of(2),
             "fir_order",
-            format!("must be between 2 and 1024, got {}", self.fir_order),
+            format!(
+                "must be even (a whole-sample group delay) and between 2 and 1024, got {}",
+                self.fir_order
+            ),
         );
-        v.in_range("threshold_fraction", self.threshold_fraction, 0.0, 1.0);
+        v.positive("min_period_s", self.min_period_s);
+        v.positive("max_period_s", self.max_period_s);
         v.check(
-            self.samples_per_mean >= 1,
+            self.min_period_s < self.max_period_s,
+            "max_period_s",
+            "must exceed min_period_s",
+        );
+        if v.finite("threshold_fraction", self.threshold_fraction) {
+            v.check(
+                self.threshold_fraction > 0.0 && self.threshold_fraction < 1.0,
+                "threshold_fraction",
+                format!(
+                    "must lie strictly between 0 and 1, got {}",
+                    self.threshold_fraction
+                ),
+            );
+        }
+        v.check(
+            (1..=1000).contains(&self.samples_per_mean),
             "samples_per_mean",
-            "must be at least 1",
+            format!("must be 1 to 1000, got {}", self.samples_per_mean),
         );
         v.positive("sigma_factor", self.sigma_factor);
         v.check(
-            self.regression_points >= 2,
+            (2..=1000).contains(&self.regression_points),
             "regression_points",
-            "must be at least 2",
+            format!("must be 2 to 1000, got {}", self.regression_points),
         );
         v.in_range("step_growth", self.step_growth, 1.0, 10.0);
         v.in_range("backtrack_factor", self.backtrack_factor, 0.01, 0.99);
         v.check(
-            self.max_acquisitions >= 1,
+            (1..=1000).contains(&self.max_acquisitions),
             "max_acquisitions",
-            "must be at least 1",
+            format!("must be 1 to 1000, got {}", self.max_acquisitions),
         );
+        v.positive("min_step_m", self.min_step_m);
         if let Some(s) = self.initial_step_m {
             v.positive("initial_step_m", s);
+            v.check(
+                s >= self.min_step_m,
+                "initial_step_m",
+                "must be at least min_step_m",
+            );
         }
-        v.positive("min_step_m", self.min_step_m);
         if let Some(s) = self.max_step_m {
             v.positive("max_step_m", s);
             v.check(s > self.min_step_m, "max_step_m", "must exceed min_step_m");
         }
         v.positive("move_speed_m_s", self.move_speed_m_s);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use control::tracker::seed2002::Seed2002Params;
+
+    fn problems(section: &TrackerSection, sensor: &ArrayGeometry) -> Vec<String> {
+        let mut v = Validator::new();
+        section.validate(&mut v);
+        section.validate_with_sensor(sensor, &mut v);
+        v.into_problems()
+            .into_iter()
+            .map(|p| format!("{}: {}", p.field, p.message))
+            .collect()
+    }
+
+    #[test]
+    fn the_defaults_are_valid_and_buildable() {
+        assert_eq!(
+            problems(&TrackerSection::default(), &ArrayGeometry::default()),
+            Vec::<String>::new()
+        );
+    }
+
+    #[test]
+    fn names_the_field_of_each_problem() {
+        let sensor = ArrayGeometry::default();
+        let section = TrackerSection {
+            name: "seed2003".into(),
+            ..TrackerSection::default()
+        };
+        let p = problems(&section, &sensor);
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert!(p[0].starts_with("name: unknown tracker `seed2003`") && p[0].contains("seed2002"));
+
+        let mut section = TrackerSection::default();
+        section.params.seed2002 = Seed2002Params {
+            fir_order: 63,
+            threshold_fraction: 1.0,
+            min_period_s: 2.0,
+            max_period_s: 1.0,
+            initial_step_m: Some(0.001),
+            window_s: f64::NAN,
+            ..Seed2002Params::default()
+        };
+        let p = problems(&section, &sensor);
+        for field in [
+            "params.seed2002.fir_order",
+            "params.seed2002.threshold_fraction",
+            "params.seed2002.max_period_s",
+            "params.seed2002.initial_step_m",
+            "params.seed2002.window_s",
+        ] {
+            assert!(p.iter().any(|m| m.starts_with(field)), "{field} in {p:?}");
+        }
+    }
+
+    #[test]
+    fn checks_the_band_against_the_sensor() {
+        let slow = ArrayGeometry {
+            sample_rate_hz: 3.0,
+            ..ArrayGeometry::default()
+        };
+        let p = problems(&TrackerSection::default(), &slow);
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert!(
+            p[0].starts_with("params.seed2002: ") && p[0].contains("3 Hz"),
+            "{p:?}"
+        );
     }
 }

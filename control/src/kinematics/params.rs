@@ -2,6 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::frames::TissuePlacement;
 use crate::types::Joints;
 
 /// Phantom Premium 1.5 link lengths (Cavusoglu et al. form).
@@ -29,19 +30,23 @@ impl Default for PhantomGeometry {
 pub struct JointLimits {
     pub min_rad: Joints,
     pub max_rad: Joints,
-    /// Allowed range of θ3 − θ2 (the two links cannot fold onto each other), rad.
+    /// Allowed range of θ3 − θ2, rad: the links can neither fold onto each other nor
+    /// stretch out straight (π/2 is full stretch on the elbow-up branch, −π/2 folded flat).
     pub coupling_min_rad: f64,
     pub coupling_max_rad: f64,
 }
 
 impl Default for JointLimits {
     fn default() -> Self {
-        // Roughly the Phantom 1.5's mechanical stops, kept slightly inside them.
+        // Software limits a few degrees inside the stops. The coupling range (−65°..+55°
+        // mechanically) and θ3's lower stop (−29°) follow an open model of a Premium of
+        // that era; θ1 and θ2 enclose the quoted workspace box. Sources and reasoning are in
+        // docs/kinematics.md; measure the stops of a real rig and write them in its file.
         Self {
             min_rad: [-1.0, -0.35, -0.45],
-            max_rad: [1.0, 1.2, 1.3],
-            coupling_min_rad: -0.9,
-            coupling_max_rad: 1.4,
+            max_rad: [1.0, 1.2, 1.5],
+            coupling_min_rad: -1.08,
+            coupling_max_rad: 0.91,
         }
     }
 }
@@ -62,11 +67,38 @@ pub struct PivotGeometry {
 
 impl Default for PivotGeometry {
     fn default() -> Self {
+        // The pivot 0.215 m straight below the gimbal point of the pose θ = (0, 0.5, 0.5)
+        // rad, so that with the tip 0.28 m below the pivot the arm sits mid-range; see
+        // docs/kinematics.md for the sweep that checks the whole tissue patch.
         Self {
             rod_length_m: 0.495,
-            pivot_in_base_m: [0.0, -0.25, 0.0],
-            min_depth_m: 0.05,
-            max_depth_m: 0.30,
+            pivot_in_base_m: [0.0, -0.09, 0.055],
+            min_depth_m: 0.15,
+            max_depth_m: 0.36,
         }
+    }
+}
+
+/// From the rod tip to the centre of the element line, tissue frame, m: the rod ends on the
+/// axis of the 9 mm sensor cylinder, whose bottom edge carries the elements.
+pub const DEFAULT_SENSOR_OFFSET_M: [f64; 3] = [0.0, -0.0045, 0.0];
+
+/// Depth of the rod tip below the pivot, m, at which the default placement puts the sensor
+/// centre on the tissue surface straight under the pivot.
+pub const DEFAULT_SURFACE_DEPTH_M: f64 = 0.28;
+
+/// A tissue frame whose origin lies on the surface straight below the pivot, where the
+/// sensor centre touches it with the tip `surface_depth_m` deep (the rod vertical when the
+/// offset points straight down, as the default does).
+pub fn tissue_under_pivot(
+    pivot: &PivotGeometry,
+    sensor_offset_m: [f64; 3],
+    surface_depth_m: f64,
+    yaw_rad: f64,
+) -> TissuePlacement {
+    let [px, py, pz] = pivot.pivot_in_base_m;
+    TissuePlacement {
+        origin_in_base_m: [px, py - surface_depth_m + sensor_offset_m[1], pz],
+        yaw_rad,
     }
 }

@@ -9,6 +9,10 @@ pub struct MotionParams {
     pub max_speed_m_s: f64,
     /// Acceleration of the straight-line setpoint profile, m/s².
     pub accel_m_s2: f64,
+    /// Commanded height of the sensor centre relative to the tissue surface, m. A few mm
+    /// negative presses into the tissue: the low-gain PD and the tissue act as springs and
+    /// the uncompensated weight on the shaft supplies the contact force.
+    pub contact_height_m: f64,
     /// A move has arrived when the believed sensor centre is this close to the target, m
     /// (the seed: 1 mm).
     pub settle_tolerance_m: f64,
@@ -21,12 +25,16 @@ pub struct MotionParams {
 
 impl Default for MotionParams {
     fn default() -> Self {
+        // 30 mm/s is three times the "fast" scale of DESIGN.md §7 and reached within
+        // 0.3 s / 4.5 mm at 0.1 m/s²; the PD's slowest (heavy-joint) mode has a time constant
+        // of ~0.2 s, so after a second at rest it has done what it can against friction.
         Self {
             max_speed_m_s: 0.03,
             accel_m_s2: 0.1,
+            contact_height_m: -0.003,
             settle_tolerance_m: 0.001,
             settle_speed_m_s: 0.002,
-            settle_timeout_s: 2.0,
+            settle_timeout_s: 1.0,
         }
     }
 }

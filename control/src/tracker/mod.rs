@@ -19,11 +19,15 @@ pub struct TrackerInput<'a> {
     /// Where the robot believes the centre of the element line is, tissue frame.
     pub sensor: SurfacePoint,
     /// The last commanded motion has finished: the sensor is within the arrival tolerance
-    /// of its target and no longer moving.
+    /// of its target and no longer moving (true when no motion was commanded). Contract:
+    /// a `MoveTo` returned for frame k is applied before `settled` is judged for frame k+1,
+    /// so from then on `settled` refers to that move.
     pub settled: bool,
 }
 
-/// Where the tracker wants the sensor to go.
+/// Where the tracker wants the sensor to go. A tracker repeats the same `MoveTo` on every
+/// frame while it wants that move; an unchanged target continues the move in progress, a
+/// changed one replaces it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum MotionCommand {
     /// Stay (or come to rest) where the sensor is.
@@ -145,6 +149,10 @@ pub enum TrackerError {
     NotSeeded { have: usize },
     #[error("invalid track limit: {0}")]
     BadLimit(String),
+    #[error(
+        "the seed points give no direction to follow: the last two are {distance_m} m apart, need at least {min_m} m"
+    )]
+    SeedsTooClose { distance_m: f64, min_m: f64 },
 }
 
 impl TrackerPhase {
@@ -183,11 +191,95 @@ pub trait Tracker: Send {
     fn step(&mut self, input: &TrackerInput<'_>) -> TrackerOutput;
 }
 
+pub mod event_queue;
+pub mod line_fit;
 pub mod seed2002;
+
+use crate::sensor::ArrayGeometry;
+
+/// The names [`build`] knows, as the command line and config spell them.
+pub const TRACKER_NAMES: &[&str] = &[seed2002::Seed2002::NAME];
+
+/// A tracker name that [`build`] does not know.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown tracker `{name}`; known trackers: {}", TRACKER_NAMES.join(", "))]
+pub struct UnknownTracker {
+    pub name: String,
+}
+
+/// Why [`build`] could not make a tracker.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BuildError {
+    #[error(transparent)]
+    Unknown(#[from] UnknownTracker),
+    #[error(transparent)]
+    Seed2002(#[from] seed2002::InvalidParams),
+}
+
+/// Make the tracker called `name` with its settings from `params`. Allocates every buffer
+/// the tracker will use; nothing allocates per frame afterwards.
+pub fn build(
+    name: &str,
+    params: &TrackerParams,
+    sensor: &ArrayGeometry,
+) -> Result<Box<dyn Tracker>, BuildError> {
+    match name {
+        seed2002::Seed2002::NAME => {
+            Ok(Box::new(seed2002::Seed2002::new(params.seed2002, *sensor)?))
+        }
+        _ => Err(UnknownTracker {
+            name: name.to_string(),
+        }
+        .into()),
+    }
+}
 
 /// Settings of every tracker, each under its name.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TrackerParams {
     pub seed2002: seed2002::Seed2002Params,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn builds_by_name_and_lists_the_names_it_knows() {
+        let sensor = ArrayGeometry::default();
+        for name in TRACKER_NAMES {
+            let t = build(name, &TrackerParams::default(), &sensor).expect("known tracker");
+            assert_eq!(t.name(), *name);
+            assert_eq!(t.phase(), TrackerPhase::Seeding { seeds: 0 });
+        }
+        let err = build("seed2003", &TrackerParams::default(), &sensor)
+            .err()
+            .expect("unknown");
+        assert!(matches!(err, BuildError::Unknown(_)));
+        let text = err.to_string();
+        assert!(
+            text.contains("seed2003") && text.contains("seed2002"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn refuses_parameters_it_cannot_run_with() {
+        let sensor = ArrayGeometry::default();
+        let mut params = TrackerParams::default();
+        params.seed2002.fir_order = 63;
+        let err = build("seed2002", &params, &sensor)
+            .err()
+            .expect("odd order");
+        assert!(err.to_string().contains("order"), "{err}");
+        let fast = ArrayGeometry {
+            sample_rate_hz: 3.0,
+            ..sensor
+        };
+        let err = build("seed2002", &TrackerParams::default(), &fast)
+            .err()
+            .expect("band above Nyquist");
+        assert!(matches!(err, BuildError::Seed2002(_)), "{err}");
+    }
 }

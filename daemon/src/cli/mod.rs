@@ -2,6 +2,7 @@
 
 mod check_config;
 mod fem;
+mod sim;
 
 use std::process::ExitCode;
 
@@ -24,6 +25,8 @@ enum Command {
     CheckConfig(check_config::Args),
     /// Run the tissue FEM: the seed papers' studies or one model file.
     Fem(fem::Args),
+    /// Run whole trials on the simulated bench in lockstep and report the tracking error.
+    Sim(sim::Args),
 }
 
 pub fn run() -> ExitCode {
@@ -31,5 +34,6 @@ pub fn run() -> ExitCode {
     match cli.command {
         Command::CheckConfig(args) => check_config::run(&args),
         Command::Fem(args) => fem::run(&args),
+        Command::Sim(args) => sim::run(&args),
     }
 }

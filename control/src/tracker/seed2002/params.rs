@@ -16,6 +16,11 @@ pub struct Seed2002Params {
     /// 4th-order FIR barely separates 1 Hz from DC at 100 Hz, so the shipped default is
     /// chosen by measured detection performance (see docs/).
     pub fir_order: usize,
+    /// Accepted pulse periods, s. Not in the seed: a "period" outside the band-pass's own
+    /// pass band is filtered noise, not a pulse. Defaults: the band corners (2.0 and 0.5 Hz)
+    /// widened by 10 %, which spans the physiological 1.0–1.67 Hz and the model's ~1 Hz.
+    pub min_period_s: f64,
+    pub max_period_s: f64,
     /// Threshold as a fraction of max − min above min (the seed: 2/3).
     pub threshold_fraction: f64,
     /// Samples averaged at the pulse peak and halfway between peaks (the seed: 15).
@@ -53,7 +58,9 @@ impl Default for Seed2002Params {
             window_s: 3.0,
             band_low_hz: 0.5,
             band_high_hz: 2.0,
-            fir_order: 64,
+            fir_order: 96,
+            min_period_s: 0.45,
+            max_period_s: 2.2,
             threshold_fraction: 2.0 / 3.0,
             samples_per_mean: 15,
             sigma_factor: 2.0,

@@ -1,0 +1,160 @@
+//! Cost of the per-cycle control path at 1 kHz: kinematics, joint setpoint, PD step.
+//!
+//! cargo bench -p pulsetrack-control --bench cycle
+//!
+//! Each line is the median over 31 batches of the time per call, ns; the ratio column is
+//! each line against the PD step measured in the same run.
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use nalgebra::{Point3, Vector3};
+use pulsetrack_control::frames::SurfacePoint;
+use pulsetrack_control::kinematics::{
+    ArmModel, DEFAULT_SENSOR_OFFSET_M, DEFAULT_SURFACE_DEPTH_M, JointLimits, PhantomGeometry,
+    PivotGeometry, phantom, tissue_under_pivot,
+};
+use pulsetrack_control::motion::{MotionParams, MotionPlanner};
+use pulsetrack_control::pd::{GravityModel, PdController, PdParams, PhantomGravity, PhantomMasses};
+use pulsetrack_control::types::{JointSetpoint, JointState};
+
+const BATCHES: usize = 31;
+const CALLS: usize = 20_000;
+
+fn median_ns(mut f: impl FnMut(usize)) -> f64 {
+    let mut per_call: Vec<f64> = (0..BATCHES)
+        .map(|_| {
+            let start = Instant::now();
+            for i in 0..CALLS {
+                f(i);
+            }
+            start.elapsed().as_secs_f64() * 1e9 / CALLS as f64
+        })
+        .collect();
+    per_call.sort_by(f64::total_cmp);
+    per_call[BATCHES / 2]
+}
+
+fn main() {
+    let pivot = PivotGeometry::default();
+    let arm = ArmModel::new(
+        PhantomGeometry::default(),
+        JointLimits::default(),
+        pivot,
+        tissue_under_pivot(
+            &pivot,
+            DEFAULT_SENSOR_OFFSET_M,
+            DEFAULT_SURFACE_DEPTH_M,
+            0.0,
+        ),
+        DEFAULT_SENSOR_OFFSET_M,
+    )
+    .expect("default geometry");
+    let geom = PhantomGeometry::default();
+    let points: Vec<Point3<f64>> = (0..64)
+        .map(|i| {
+            let a = f64::from(i) * 0.7;
+            Point3::new(0.12 * a.sin(), -0.003, 0.06 * (1.3 * a).cos())
+        })
+        .collect();
+    let joints: Vec<_> = points
+        .iter()
+        .map(|p| arm.joints_for_sensor(p).expect("reachable"))
+        .collect();
+    let gimbals: Vec<_> = joints
+        .iter()
+        .map(|q| phantom::forward(&geom, q).expect("finite"))
+        .collect();
+    let v = Vector3::new(0.02, 0.0, -0.01);
+    let gravity = PhantomGravity::new(&PhantomMasses::default());
+    let mut pd = PdController::new(PdParams::default()).expect("default gains");
+    let mut planner = MotionPlanner::new(MotionParams::default()).expect("default motion");
+    planner
+        .start(
+            SurfacePoint::new(-0.1, 0.0),
+            SurfacePoint::new(0.1, 0.03),
+            0.03,
+            0.0,
+        )
+        .expect("valid move");
+
+    let pd_ns = median_ns(|i| {
+        let q = joints[i % 64];
+        let sp = JointSetpoint::at_rest(q);
+        let st = JointState {
+            t_s: 0.0,
+            position_rad: q,
+            velocity_rad_s: [0.0; 3],
+        };
+        black_box(pd.step(black_box(&sp), &st, &[0.0; 3], 1e-3).ok());
+    });
+    let rows: Vec<(&str, f64)> = vec![
+        (
+            "phantom::forward",
+            median_ns(|i| {
+                black_box(phantom::forward(&geom, black_box(&joints[i % 64])).ok());
+            }),
+        ),
+        (
+            "phantom::inverse",
+            median_ns(|i| {
+                black_box(phantom::inverse(&geom, black_box(&gimbals[i % 64])).ok());
+            }),
+        ),
+        (
+            "ArmModel::sensor_from_joints",
+            median_ns(|i| {
+                black_box(arm.sensor_from_joints(black_box(&joints[i % 64])).ok());
+            }),
+        ),
+        (
+            "ArmModel::joints_for_sensor",
+            median_ns(|i| {
+                black_box(arm.joints_for_sensor(black_box(&points[i % 64])).ok());
+            }),
+        ),
+        (
+            "ArmModel::sensor_jacobian",
+            median_ns(|i| {
+                black_box(arm.sensor_jacobian(black_box(&joints[i % 64])).ok());
+            }),
+        ),
+        (
+            "ArmModel::joint_setpoint",
+            median_ns(|i| {
+                black_box(arm.joint_setpoint(black_box(&points[i % 64]), &v).ok());
+            }),
+        ),
+        (
+            "PhantomGravity::torque_nm",
+            median_ns(|i| {
+                black_box(gravity.torque_nm(black_box(&joints[i % 64])));
+            }),
+        ),
+        (
+            "MotionPlanner::setpoint",
+            median_ns(|i| {
+                black_box(planner.setpoint(black_box(i as f64 * 1e-4)));
+            }),
+        ),
+        ("PdController::step", pd_ns),
+        (
+            "one cycle: setpoint + joint_setpoint + gravity + PD",
+            median_ns(|i| {
+                let (p, vel) = planner.setpoint(i as f64 * 1e-4).expect("running");
+                let sp = arm.joint_setpoint(&p, &vel).expect("reachable");
+                let g = gravity.torque_nm(&sp.position_rad);
+                let st = JointState {
+                    t_s: 0.0,
+                    position_rad: sp.position_rad,
+                    velocity_rad_s: sp.velocity_rad_s,
+                };
+                black_box(pd.step(&sp, &st, &g, 1e-3).ok());
+            }),
+        ),
+    ];
+    println!("{:<52} {:>10} {:>8}", "call", "median ns", "x PD");
+    for (name, ns) in rows {
+        println!("{name:<52} {ns:>10.1} {:>8.2}", ns / pd_ns);
+    }
+}

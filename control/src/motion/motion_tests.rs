@@ -1,0 +1,244 @@
+use proptest::prelude::*;
+
+use super::*;
+
+fn planner() -> MotionPlanner {
+    MotionPlanner::new(MotionParams::default()).unwrap()
+}
+
+fn close(a: f64, b: f64, tol: f64) -> bool {
+    (a - b).abs() <= tol
+}
+
+#[test]
+fn trapezoid_matches_the_analytic_profile() {
+    // 100 mm at 30 mm/s, 0.1 m/s²: 0.3 s ramps covering 4.5 mm each, 91 mm of cruise.
+    let p = Trapezoid::new(0.1, 0.03, 0.1);
+    assert!(close(p.duration_s(), 0.3 + 0.091 / 0.03 + 0.3, 1e-12));
+    assert!(close(p.peak_speed_m_s(), 0.03, 0.0));
+    let cases = [
+        (0.15, 0.5 * 0.1 * 0.15 * 0.15, 0.015),
+        (0.3, 0.0045, 0.03),
+        (1.0, 0.0045 + 0.03 * 0.7, 0.03),
+        (p.duration_s() - 0.1, 0.1 - 0.5 * 0.1 * 0.01, 0.01),
+        (p.duration_s(), 0.1, 0.0),
+        (100.0, 0.1, 0.0),
+        (-1.0, 0.0, 0.0),
+    ];
+    for (t, s, v) in cases {
+        let got = p.sample(t);
+        assert!(
+            close(got.s_m, s, 1e-12) && close(got.speed_m_s, v, 1e-12),
+            "t {t}: {got:?}"
+        );
+    }
+}
+
+#[test]
+fn short_moves_are_triangles() {
+    // 4 mm < v²/a = 9 mm: peak √(D a) = 20 mm/s after 0.2 s, halfway at the peak.
+    let p = Trapezoid::new(0.004, 0.03, 0.1);
+    assert!(close(p.peak_speed_m_s(), 0.02, 1e-15));
+    assert!(close(p.duration_s(), 0.4, 1e-15));
+    let mid = p.sample(0.2);
+    assert!(close(mid.s_m, 0.002, 1e-15) && close(mid.speed_m_s, 0.02, 1e-15));
+    // Exactly v²/a: the cruise vanishes from either side without a jump.
+    let edge = Trapezoid::new(0.009, 0.03, 0.1);
+    assert!(close(edge.duration_s(), 0.6, 1e-12) && close(edge.peak_speed_m_s(), 0.03, 1e-12));
+}
+
+#[test]
+fn a_move_runs_along_the_line_at_the_contact_height() {
+    let mut m = planner();
+    let from = SurfacePoint::new(0.01, -0.02);
+    let target = SurfacePoint::new(0.04, 0.02);
+    m.start(from, target, 0.02, 10.0).unwrap();
+    let h = MotionParams::default().contact_height_m;
+    let dir = Vector3::new(0.6, 0.0, 0.8);
+    let profile = m.profile().unwrap();
+    assert!(close(profile.distance_m(), 0.05, 1e-15));
+    // Trapezoid at 20 mm/s: 0.2 s ramps (2 mm each), 46 mm of cruise over 2.3 s.
+    assert!(close(m.finish_time_s().unwrap(), 10.0 + 2.7, 1e-12));
+    for t in [9.0, 10.0, 10.1, 11.0, 12.6, 12.7, 20.0] {
+        let (p, v) = m.setpoint(t).unwrap();
+        let s = profile.sample(t - 10.0);
+        let expected = Point3::new(0.01, h, -0.02) + dir * s.s_m;
+        assert!((p - expected).norm() < 1e-15, "t {t}");
+        assert!((v - dir * s.speed_m_s).norm() < 1e-15, "t {t}");
+    }
+    let (end, v_end) = m.setpoint(m.finish_time_s().unwrap()).unwrap();
+    let miss = (end - Point3::new(0.04, h, 0.02)).norm();
+    assert!(miss < 1e-15 && v_end.norm() < 1e-12, "{miss} {v_end:?}");
+    // Speed is capped at the configured maximum.
+    m.start(from, target, 1.0, 0.0).unwrap();
+    assert!(close(m.profile().unwrap().peak_speed_m_s(), 0.03, 0.0));
+}
+
+#[test]
+fn touch_down_from_above_ends_at_the_contact_height() {
+    let mut m = planner();
+    let above = Point3::new(0.0, 0.02, 0.0);
+    m.start_from_point(above, SurfacePoint::new(0.0, 0.0), 0.01, 0.0)
+        .unwrap();
+    let (p0, v0) = m.setpoint(0.0).unwrap();
+    assert_eq!(p0, above);
+    assert_eq!(v0, Vector3::zeros());
+    let (p1, _) = m.setpoint(m.finish_time_s().unwrap()).unwrap();
+    assert!((p1.y - MotionParams::default().contact_height_m).abs() < 1e-15);
+    let (_, v_mid) = m.setpoint(1.0).unwrap();
+    assert!(v_mid.y < 0.0 && v_mid.x == 0.0 && v_mid.z == 0.0);
+}
+
+#[test]
+fn bad_commands_are_refused_and_leave_the_move_alone() {
+    let mut m = planner();
+    let a = SurfacePoint::new(0.0, 0.0);
+    let b = SurfacePoint::new(0.01, 0.0);
+    assert!(m.setpoint(0.0).is_none());
+    m.start(a, b, 0.01, 0.0).unwrap();
+    let before = m.profile();
+    for speed in [0.0, -0.01, f64::NAN, f64::INFINITY] {
+        assert!(matches!(
+            m.start(a, b, speed, 1.0),
+            Err(MotionError::InvalidSpeed { .. })
+        ));
+    }
+    let nan = SurfacePoint::new(f64::NAN, 0.0);
+    assert!(matches!(
+        m.start(a, nan, 0.01, 1.0),
+        Err(MotionError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        m.start(nan, b, 0.01, 1.0),
+        Err(MotionError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        m.start(a, b, 0.01, f64::NAN),
+        Err(MotionError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        m.hold(SurfacePoint::new(0.0, f64::INFINITY), 1.0),
+        Err(MotionError::NonFinite { .. })
+    ));
+    assert_eq!(m.profile(), before);
+    assert!(m.setpoint(f64::NAN).is_none());
+    m.clear();
+    assert!(m.setpoint(0.0).is_none());
+    assert!(!m.settled(a, 0.0, 100.0));
+}
+
+#[test]
+fn invalid_settings_are_refused() {
+    let d = MotionParams::default();
+    for p in [
+        MotionParams {
+            accel_m_s2: 0.0,
+            ..d
+        },
+        MotionParams {
+            max_speed_m_s: f64::NAN,
+            ..d
+        },
+        MotionParams {
+            settle_tolerance_m: -1.0,
+            ..d
+        },
+        MotionParams {
+            settle_timeout_s: f64::INFINITY,
+            ..d
+        },
+        MotionParams {
+            contact_height_m: f64::NAN,
+            ..d
+        },
+    ] {
+        assert!(matches!(
+            MotionPlanner::new(p),
+            Err(MotionError::InvalidParams { .. })
+        ));
+    }
+}
+
+#[test]
+fn settling_needs_the_profile_done_the_sensor_close_and_slow() {
+    let d = MotionParams::default();
+    let mut m = planner();
+    let target = SurfacePoint::new(0.05, 0.0);
+    m.start(SurfacePoint::new(0.0, 0.0), target, 0.03, 0.0)
+        .unwrap();
+    let end = m.finish_time_s().unwrap();
+    let near = SurfacePoint::new(0.05 - 0.9 * d.settle_tolerance_m, 0.0);
+    let far = SurfacePoint::new(0.05 - 1.1 * d.settle_tolerance_m, 0.0);
+    // Still running: never settled, even on target.
+    assert!(!m.settled(target, 0.0, end - 1e-3));
+    // Done, close and slow.
+    assert!(m.settled(near, 0.5 * d.settle_speed_m_s, end));
+    // Close but still moving; or slow but too far: not yet...
+    assert!(!m.settled(
+        near,
+        1.5 * d.settle_speed_m_s,
+        end + 0.5 * d.settle_timeout_s
+    ));
+    assert!(!m.settled(far, 0.0, end + 0.5 * d.settle_timeout_s));
+    // ... until the timeout after the profile's end.
+    assert!(m.settled(far, 0.0, end + d.settle_timeout_s));
+    assert!(m.settled(far, 1.0, end + 2.0 * d.settle_timeout_s));
+    // Garbage in: not settled.
+    assert!(!m.settled(SurfacePoint::new(f64::NAN, 0.0), 0.0, end + 10.0));
+    assert!(!m.settled(target, f64::NAN, end + 10.0));
+    assert!(!m.settled(target, 0.0, f64::INFINITY));
+}
+
+#[test]
+fn zero_length_moves_and_holds_settle_at_once() {
+    let mut m = planner();
+    let p = SurfacePoint::new(0.02, 0.01);
+    m.start(p, p, 0.02, 5.0).unwrap();
+    assert_eq!(m.finish_time_s(), Some(5.0));
+    let (sp, v) = m.setpoint(5.0).unwrap();
+    assert!(sp.iter().all(|x| x.is_finite()) && v == Vector3::zeros());
+    assert!(m.settled(p, 0.0, 5.0));
+    m.hold(p, 7.0).unwrap();
+    assert_eq!(m.target(), Some(p));
+    let (held, v) = m.setpoint(8.0).unwrap();
+    assert_eq!(held, m.contact_point(&p));
+    assert_eq!(v, Vector3::zeros());
+    assert!(m.settled(p, 0.0, 7.0));
+    assert!(!m.settled(SurfacePoint::new(0.03, 0.01), 0.0, 7.5));
+    // Holding wherever the sensor is, at its own height.
+    let here = Point3::new(0.01, 0.004, -0.02);
+    m.hold_point(here, 9.0).unwrap();
+    assert_eq!(m.setpoint(9.5).unwrap().0, here);
+}
+
+proptest! {
+    #[test]
+    fn profiles_are_continuous_monotone_and_consistent(
+        d in 0.0f64..0.3,
+        v in 1e-4f64..0.05,
+        a in 1e-3f64..1.0,
+    ) {
+        let p = Trapezoid::new(d, v, a);
+        let total = p.duration_s();
+        prop_assert!(total.is_finite() && total >= 0.0);
+        prop_assert!(p.peak_speed_m_s() <= v * (1.0 + 1e-12));
+        let n = 400;
+        let mut last = p.sample(0.0);
+        for i in 1..=n {
+            let t = total * f64::from(i) / f64::from(n);
+            let s = p.sample(t);
+            prop_assert!(s.s_m.is_finite() && s.speed_m_s.is_finite());
+            prop_assert!(s.s_m >= last.s_m - 1e-15);
+            // Position changes by the mean speed over the interval (the speed is piecewise
+            // linear, so the trapezoid rule is exact within a phase).
+            let dt = total / f64::from(n);
+            let moved = s.s_m - last.s_m;
+            prop_assert!(moved <= (p.peak_speed_m_s() * dt) * (1.0 + 1e-9) + 1e-15);
+            prop_assert!((s.speed_m_s - last.speed_m_s).abs() <= a * dt * (1.0 + 1e-9) + 1e-15);
+            last = s;
+        }
+        prop_assert!((last.s_m - d).abs() <= 1e-12 && last.speed_m_s <= 1e-12);
+        let end = p.sample(total);
+        prop_assert!(end.s_m == d && end.speed_m_s == 0.0);
+    }
+}

@@ -1,0 +1,263 @@
+//! `pulsetrack sim --scene FILE [--tracker NAME] [--trials N] [--seed S] [--json] [--plot DIR]`:
+//! run whole trials on the simulated bench in lockstep (no clock, no threads) and report
+//! what the tracker located against the true artery.
+//!
+//! With `--json` stdout is one JSON document (docs/sim-json.md); otherwise a human summary.
+//! Progress and diagnostics go to stderr only.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use config::Config;
+use control::signal::bandpass::{BandPass, BandPassSpec};
+use control::types::ELEMENTS;
+use serde::Serialize;
+use sim::scene::{ArteryPath, Scene};
+use sim::trial::{TrialResult, TrialsSummary};
+
+use crate::plot::{Chart, Mark, Series, write_chart};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// A shipped scene by name (`seed-arc-145.ron`) or a scene file.
+    #[arg(long)]
+    pub scene: String,
+    /// The tracker to run.
+    #[arg(long, default_value = "seed2002")]
+    pub tracker: String,
+    /// Trials to run; trial i uses seed S + i.
+    #[arg(long, default_value_t = 1)]
+    pub trials: u32,
+    /// Random seed of the first trial.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Print one JSON document on stdout instead of a summary.
+    #[arg(long)]
+    pub json: bool,
+    /// Write plots (PNG and SVG) into this directory.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Print every tracker event of every trial on stderr, with where the sensor truly was.
+    #[arg(long)]
+    pub events: bool,
+    /// The daemon configuration giving the rig's geometry, gains and tracker constants;
+    /// default: the shipped simulator configuration.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+}
+
+#[derive(Debug, Serialize)]
+struct Report<'a> {
+    scene: &'a str,
+    tracker: &'a str,
+    trials: &'a [TrialResult],
+}
+
+pub fn run(args: &Args) -> ExitCode {
+    match run_inner(args) {
+        Ok(code) => code,
+        Err(message) => {
+            eprintln!("pulsetrack sim: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn load_config(path: Option<&Path>) -> Result<Config, String> {
+    match path {
+        Some(p) => config::load_file::<Config>(p)
+            .map(|l| l.value)
+            .map_err(|e| e.to_string()),
+        None => {
+            let (name, text) = config::shipped::SIM_CONFIG;
+            config::load_str::<Config>(&format!("<shipped {name}>"), text)
+                .map_err(|e| e.to_string())
+        }
+    }
+}
+
+fn run_inner(args: &Args) -> Result<ExitCode, String> {
+    if args.trials == 0 {
+        return Err("--trials must be at least 1".into());
+    }
+    let config = load_config(args.config.as_deref())?;
+    let scene = sim::scene::load(&args.scene, None).map_err(|e| e.to_string())?;
+    let mut trials = Vec::with_capacity(args.trials as usize);
+    for i in 0..args.trials {
+        let seed = args.seed.wrapping_add(i as u64);
+        let trial = sim::runner::run_trial(&scene, &config, &args.tracker, seed)
+            .map_err(|e| e.to_string())?;
+        eprintln!(
+            "trial {}/{} (seed {seed}): {} after {:.0} s simulated, {} points, lateral error SD {:.2} mm, {} backtracks, {:.2} s wall",
+            i + 1,
+            args.trials,
+            trial.end_reason,
+            trial.duration_s,
+            trial.located.len(),
+            trial.lateral_error_m.sd * 1e3,
+            trial.backtracks,
+            trial.wall_s
+        );
+        if args.events {
+            for line in &trial.log {
+                eprintln!("  {line}");
+            }
+        }
+        trials.push(trial);
+    }
+    if let Some(dir) = &args.plot {
+        let path = ArteryPath::from_spec(&scene.artery.path).map_err(|e| e.to_string())?;
+        let files = plot_trials(&config, &scene, &path, &trials, dir).map_err(|e| e.to_string())?;
+        for f in files {
+            eprintln!("wrote {}", f.display());
+        }
+    }
+    if args.json {
+        let report = Report {
+            scene: &scene.name,
+            tracker: &args.tracker,
+            trials: &trials,
+        };
+        let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        println!("{text}");
+    } else {
+        print_summary(&scene, &args.tracker, &trials);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_summary(scene: &Scene, tracker: &str, trials: &[TrialResult]) {
+    println!("scene {} with tracker {tracker}", scene.name);
+    println!(
+        "{:>5} {:>8} {:>16} {:>7} {:>9} {:>9} {:>9} {:>6} {:>9} {:>7}",
+        "trial", "seed", "end", "points", "mean mm", "sd mm", "max mm", "back", "track s", "wall s"
+    );
+    for (i, t) in trials.iter().enumerate() {
+        println!(
+            "{:>5} {:>8} {:>16} {:>7} {:>9.2} {:>9.2} {:>9.2} {:>6} {:>9.1} {:>7.3}",
+            i + 1,
+            t.seed,
+            t.end_reason,
+            t.lateral_error_m.points,
+            t.lateral_error_m.mean * 1e3,
+            t.lateral_error_m.sd * 1e3,
+            t.lateral_error_m.max * 1e3,
+            t.backtracks,
+            t.duration_s,
+            t.wall_s
+        );
+    }
+    let s = TrialsSummary::of(trials);
+    println!(
+        "all: {}/{} completed, pooled lateral error {:.2} ± {:.2} mm (mean ± SD), {:.2} backtracks per trial, {:.0} s per track",
+        s.completed,
+        s.trials,
+        s.pooled_mean_m * 1e3,
+        s.pooled_sd_m * 1e3,
+        s.backtracks_per_trial,
+        s.mean_duration_s
+    );
+}
+
+fn plot_trials(
+    config: &Config,
+    scene: &Scene,
+    path: &ArteryPath,
+    trials: &[TrialResult],
+    dir: &Path,
+) -> Result<Vec<PathBuf>, crate::plot::PlotError> {
+    let mm = |v: f64| v * 1e3;
+    let mut files = Vec::new();
+    // Top view: the true path, every trial's located points, and where the sensor truly was.
+    let mut top = Chart::new(
+        format!("{}: located points (top view)", scene.name),
+        "x (mm)",
+        "z (mm)",
+    )
+    .with(Series::new(
+        "true artery",
+        path.sample(0.001)
+            .iter()
+            .map(|p| (mm(p.x_m), mm(p.z_m)))
+            .collect(),
+        Mark::Line,
+    ));
+    top.equal_aspect = true;
+    for (i, t) in trials.iter().enumerate() {
+        top = top.with(Series::new(
+            format!("trial {} (seed {})", i + 1, t.seed),
+            t.located.iter().map(|p| (mm(p.x_m), mm(p.z_m))).collect(),
+            Mark::LinePoints,
+        ));
+    }
+    files.extend(write_chart(&top, dir, "top_view")?);
+    // Lateral error against distance along the path.
+    let mut err = Chart::new(
+        format!("{}: lateral error of located points", scene.name),
+        "distance along the path (mm)",
+        "signed lateral error (mm)",
+    );
+    for (i, t) in trials.iter().enumerate() {
+        err = err.with(Series::new(
+            format!("trial {}", i + 1),
+            t.located
+                .iter()
+                .map(|p| (mm(p.along_path_m), mm(p.lateral_error_m)))
+                .collect(),
+            Mark::LinePoints,
+        ));
+    }
+    files.extend(write_chart(&err, dir, "error_along_path")?);
+    // A 4 s trace of all ten elements at the first placement, band-passed with the seed's
+    // filter as the tracker configures it (the seed's Fig. 2).
+    if let Some(t) = trials.first()
+        && let Some(first) = t.first_acquisition.first()
+    {
+        let t0 = first.t_s;
+        let window: Vec<_> = t
+            .first_acquisition
+            .iter()
+            .filter(|f| f.t_s - t0 <= 4.0)
+            .collect();
+        let p = &config.tracker.params.seed2002;
+        let filter = BandPass::design(BandPassSpec {
+            order: p.fir_order,
+            low_hz: p.band_low_hz,
+            high_hz: p.band_high_hz,
+            sample_rate_hz: config.sensor.sample_rate_hz,
+        });
+        let mut trace = Chart::new(
+            format!(
+                "{}: all ten elements at the first placement, 4 s, band-passed",
+                scene.name
+            ),
+            "time (s)",
+            "filtered force (N)",
+        );
+        for e in 0..ELEMENTS {
+            let raw: Vec<f64> = window.iter().map(|f| f.force_n[e]).collect();
+            let mut filtered = vec![0.0; raw.len()];
+            match &filter {
+                Ok(bp) => bp.apply(&raw, &mut filtered),
+                Err(_) => {
+                    // No usable filter in the configuration: plot the raw force about its mean.
+                    let mean = raw.iter().sum::<f64>() / raw.len().max(1) as f64;
+                    for (o, r) in filtered.iter_mut().zip(&raw) {
+                        *o = r - mean;
+                    }
+                }
+            }
+            trace = trace.with(Series::new(
+                format!("element {e}"),
+                window
+                    .iter()
+                    .zip(&filtered)
+                    .map(|(f, v)| (f.t_s - t0, *v))
+                    .collect(),
+                Mark::Line,
+            ));
+        }
+        files.extend(write_chart(&trace, dir, "elements_4s")?);
+    }
+    Ok(files)
+}

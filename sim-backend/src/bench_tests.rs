@@ -1,0 +1,236 @@
+use super::*;
+use control::motion::MotionPlanner;
+use control::pd::PdController;
+use control::types::JointSetpoint;
+
+fn sim_config() -> config::Config {
+    let (name, text) = config::shipped::SIM_CONFIG;
+    config::load_str(name, text).expect("the shipped config loads")
+}
+
+fn scene(name: &str) -> Scene {
+    crate::scene::load(name, None).expect("shipped scene")
+}
+
+/// The PD and planner of the daemon, driving the bench directly.
+struct Driver {
+    model: ArmModel,
+    pd: PdController,
+    planner: MotionPlanner,
+    gravity: PhantomGravity,
+}
+
+impl Driver {
+    fn new(config: &config::Config) -> Self {
+        let r = &config.robot;
+        Self {
+            model: ArmModel::new(
+                r.phantom,
+                r.joint_limits,
+                r.pivot,
+                r.tissue,
+                r.sensor_offset_m,
+            )
+            .unwrap(),
+            pd: PdController::new(config.control.pd).unwrap(),
+            planner: MotionPlanner::new(config.control.motion).unwrap(),
+            gravity: PhantomGravity::new(&config.robot.link_masses),
+        }
+    }
+
+    fn start(&mut self, bench: &mut Bench) {
+        bench.set_enabled(true);
+        let q = bench.read_joints().position_rad;
+        let here = self.model.sensor_from_joints(&q).unwrap();
+        self.planner.hold_point(here, bench.now_s()).unwrap();
+    }
+
+    fn run(&mut self, bench: &mut Bench, seconds: f64) -> Vec<TactileFrame> {
+        let end = bench.now_s() + seconds;
+        let mut frames = Vec::new();
+        while bench.now_s() < end {
+            let state = bench.read_joints();
+            let (p, v) = self.planner.setpoint(bench.now_s()).unwrap();
+            let sp: JointSetpoint = self.model.joint_setpoint(&p, &v).unwrap();
+            let g = self.gravity.torque_nm(&state.position_rad);
+            let tq = self.pd.step(&sp, &state, &g, bench.dt_s()).unwrap();
+            bench.write_torques(&tq).unwrap();
+            frames.extend(bench.step());
+        }
+        frames
+    }
+
+    fn move_by(&mut self, bench: &mut Bench, dx: f64, dz: f64) {
+        let from = self.planner.setpoint(bench.now_s()).unwrap().0;
+        let to = SurfacePoint::new(from.x + dx, from.z + dz);
+        self.planner
+            .start_from_point(from, to, 0.01, bench.now_s())
+            .unwrap();
+    }
+
+    fn believed(&self, bench: &Bench) -> SurfacePoint {
+        let q = bench.read_joints().position_rad;
+        self.model.surface_point(&q).unwrap()
+    }
+}
+
+#[test]
+fn same_seed_same_frames_and_different_seed_different_noise() {
+    let config = sim_config();
+    let s = scene("seed-arc-145.ron");
+    let run = |seed| {
+        let mut bench = Bench::new(&s, &config, seed, false).unwrap();
+        let mut d = Driver::new(&config);
+        d.start(&mut bench);
+        d.move_by(&mut bench, 0.01, 0.002);
+        let frames = d.run(&mut bench, 3.0);
+        (frames, bench.truth())
+    };
+    let (a, ta) = run(5);
+    let (b, tb) = run(5);
+    assert_eq!(a.len(), 300);
+    assert_eq!(a, b, "bit-identical frames");
+    assert_eq!(ta, tb);
+    let (c, _) = run(6);
+    assert_ne!(a, c);
+}
+
+#[test]
+fn resting_under_the_mass_presses_about_its_weight() {
+    let config = sim_config();
+    let s = scene("seed-arc-145.ron");
+    let mut bench = Bench::new(&s, &config, 1, false).unwrap();
+    let mut d = Driver::new(&config);
+    d.start(&mut bench);
+    d.run(&mut bench, 2.0);
+    let t = bench.truth();
+    // The 0.3 kg mass (2.9 N) plus the PD pressing toward the contact height.
+    assert!((2.0..6.0).contains(&t.normal_n), "{t:?}");
+    assert!(t.height_m < 0.0, "pressed in: {t:?}");
+}
+
+#[test]
+fn compliant_rod_leaves_the_sensor_behind_after_a_slide_and_a_rigid_one_does_not() {
+    let config = sim_config();
+    let compliant = scene("seed-arc-145.ron");
+    let mut rigid = compliant.clone();
+    rigid.shaft = None;
+    rigid.pivot = None;
+    let lag = |s: &Scene| {
+        let mut bench = Bench::new(s, &config, 1, false).unwrap();
+        let mut d = Driver::new(&config);
+        d.start(&mut bench);
+        d.run(&mut bench, 1.0);
+        d.move_by(&mut bench, 0.0, 0.01);
+        d.run(&mut bench, 4.0);
+        let t = bench.truth();
+        let believed = d.believed(&bench);
+        // The true sensor trails the believed one, opposite the slide (toward -z).
+        (believed.z_m - t.sensor.z_m, t)
+    };
+    let (lag_compliant, t) = lag(&compliant);
+    let (lag_rigid, _) = lag(&rigid);
+    assert!(lag_compliant > 0.5e-3, "{lag_compliant} {t:?}");
+    assert!(lag_rigid.abs() < 0.1e-3, "{lag_rigid}");
+    // Friction held it there: c F with F at most μ_s N.
+    let f = s_friction(&compliant);
+    assert!(t.friction_n[1].abs() <= f.static_coefficient * t.normal_n + 1e-9);
+}
+
+fn s_friction(s: &Scene) -> crate::scene::FrictionSpec {
+    s.tissue.friction.expect("the seed scenes have friction")
+}
+
+#[test]
+fn seed_tube_swings_about_six_centinewtons_under_the_ideal_robot() {
+    // Fig. 2: sensor centred on the tube, the two centred elements swing up to 0.06 N.
+    let config = sim_config();
+    let s = scene("seed-arc-220.ron");
+    let mut bench = Bench::new(&s, &config, 1, true).unwrap();
+    let path = bench.path().clone();
+    // Centre the element line on the tube at the middle of the arc (tube along x there).
+    let (mid, _) = path.at(path.length_m() / 2.0);
+    bench.place_ideal(mid);
+    let (mut lo, mut hi) = ([f64::MAX; ELEMENTS], [f64::MIN; ELEMENTS]);
+    for _ in 0..2000 {
+        bench.step();
+        let f = bench.clean_forces();
+        for i in 0..ELEMENTS {
+            lo[i] = lo[i].min(f[i]);
+            hi[i] = hi[i].max(f[i]);
+        }
+    }
+    let swing: Vec<f64> = (0..ELEMENTS).map(|i| hi[i] - lo[i]).collect();
+    assert!((0.045..0.07).contains(&swing[4]), "{swing:?}");
+    assert!((0.045..0.07).contains(&swing[5]), "{swing:?}");
+    assert!(swing[0] < 0.3 * swing[4], "{swing:?}");
+}
+
+#[test]
+fn frames_come_every_ten_milliseconds_with_noise_of_the_scene() {
+    let config = sim_config();
+    let mut s = scene("seed-arc-220.ron");
+    s.pulse = crate::scene::PulseSpec::Absent;
+    let mut bench = Bench::new(&s, &config, 3, true).unwrap();
+    let mut frames = Vec::new();
+    for _ in 0..2_000 {
+        frames.extend(bench.step());
+    }
+    assert_eq!(frames.len(), 200);
+    for (k, f) in frames.iter().enumerate() {
+        assert_eq!(f.seq, k as u64);
+        assert!((f.t_s - 0.01 * (k + 1) as f64).abs() < 1e-9);
+    }
+    // Static load plus noise: the SD over time of each element is the noise SD.
+    let e = 3;
+    let mean = frames.iter().map(|f| f.force_n[e]).sum::<f64>() / 200.0;
+    let sd = (frames
+        .iter()
+        .map(|f| (f.force_n[e] - mean).powi(2))
+        .sum::<f64>()
+        / 199.0)
+        .sqrt();
+    assert!((sd - 0.012).abs() < 0.003, "{sd}");
+}
+
+#[test]
+fn dropped_frames_leave_gaps_and_dead_elements_read_noise() {
+    let config = sim_config();
+    let mut s = scene("seed-arc-220.ron");
+    s.faults = Some(crate::scene::FaultSpec {
+        dead_elements: vec![4],
+        frame_drop_probability: 0.2,
+    });
+    let mut bench = Bench::new(&s, &config, 3, true).unwrap();
+    let mut frames = Vec::new();
+    for _ in 0..10_000 {
+        frames.extend(bench.step());
+    }
+    assert!((700..900).contains(&frames.len()), "{}", frames.len());
+    assert!(frames.windows(2).any(|w| w[1].seq > w[0].seq + 1));
+    let mean4 = frames.iter().map(|f| f.force_n[4]).sum::<f64>() / frames.len() as f64;
+    assert!(mean4.abs() < 0.01, "dead element reads only noise: {mean4}");
+}
+
+#[test]
+fn torques_are_refused_when_not_finite_and_ignored_when_disabled() {
+    let config = sim_config();
+    let s = scene("seed-arc-145.ron");
+    let mut bench = Bench::new(&s, &config, 1, false).unwrap();
+    let mut bad = JointTorques::ZERO;
+    bad.torque_nm[1] = f64::NAN;
+    assert!(bench.write_torques(&bad).is_err());
+    // Disabled: a large torque does nothing; the arm rests on the tissue.
+    let mut big = JointTorques::ZERO;
+    big.torque_nm[0] = 0.3;
+    bench.write_torques(&big).unwrap();
+    for _ in 0..500 {
+        bench.step();
+    }
+    let q0 = bench.read_joints().position_rad[0];
+    let mut bench2 = Bench::new(&s, &config, 1, false).unwrap();
+    for _ in 0..500 {
+        bench2.step();
+    }
+    assert_eq!(q0, bench2.read_joints().position_rad[0]);
+}

@@ -1,0 +1,7 @@
+//! The physics of the bench: what the sensor feels and how the arm, rod and tissue move.
+
+pub mod contact;
+pub mod joints;
+pub mod kernel;
+pub mod rod;
+pub mod tactile;

@@ -1,0 +1,561 @@
+//! The lockstep runner: a whole trial as fast as the CPU allows, with no threads and no
+//! clock but the simulated one.
+//!
+//! It drives the same control code the daemon does against the same plant: control's
+//! `ArmModel` (encoders through the fixed-pivot model: what the robot believes),
+//! `MotionPlanner`, `PdController` at the servo rate, and a `Tracker` by name at the frame
+//! rate. The trial is the surgeon's: move to the first placement, mark, move to the second,
+//! mark, then track on its own until the tracker ends (or a simulated time limit). The same
+//! seed gives bit-identical results; only `wall_s` depends on the machine.
+
+use std::time::Instant;
+
+use control::frames::SurfacePoint;
+use control::kinematics::ArmModel;
+use control::motion::MotionPlanner;
+use control::pd::PdController;
+use control::pd::gravity::{GravityModel, PhantomGravity};
+use control::tracker::{
+    EndReason, MotionCommand, TrackLimit, Tracker, TrackerEvent, TrackerInput, TrackerPhase,
+};
+use control::types::{JointSetpoint, JointTorques, TactileFrame};
+use nalgebra::{Point3, Vector3};
+
+use crate::bench::Bench;
+use crate::error::SimError;
+use crate::scene::Scene;
+use crate::trial::{LocatedSample, TrialResult};
+
+/// Simulated time allowed for the whole trial before it is stopped as `timeout`, s. The seed
+/// took about two minutes per 26 cm track.
+pub const TRIAL_TIME_LIMIT_S: f64 = 1200.0;
+
+/// Manual marks tried at one placement before giving up (a surgeon would try again).
+const MARK_ATTEMPTS: usize = 3;
+
+/// Speed at which the "surgeon" moves the sensor to a placement, m/s.
+const PLACEMENT_SPEED_M_S: f64 = 0.01;
+
+/// How often the sensor's believed and true positions are kept for plots, s.
+const TRACK_SAMPLE_S: f64 = 0.1;
+
+/// Run one whole trial of `scene` on the rig `config` describes, with the tracker `tracker`.
+pub fn run_trial(
+    scene: &Scene,
+    config: &config::Config,
+    tracker: &str,
+    seed: u64,
+) -> Result<TrialResult, SimError> {
+    let wall = Instant::now();
+    let mut trial = Lockstep::new(scene, config, tracker, seed)?;
+    let mut result = trial.run(scene)?;
+    result.seed = seed;
+    result.wall_s = wall.elapsed().as_secs_f64();
+    Ok(result)
+}
+
+/// Why a phase of the trial stopped early.
+enum Stop {
+    /// The simulated time limit.
+    Timeout,
+    /// The controller or the kinematics refused.
+    Fault(String),
+}
+
+/// Everything one trial drives.
+struct Lockstep {
+    bench: Bench,
+    model: ArmModel,
+    pd: PdController,
+    planner: MotionPlanner,
+    gravity: PhantomGravity,
+    tracker: Box<dyn Tracker>,
+    /// The joint setpoint of a planner at rest, reused until the planner moves.
+    rest_setpoint: Option<(Point3<f64>, JointSetpoint)>,
+    /// Where the robot believes the sensor is (tissue frame) and how fast it moves.
+    believed: Point3<f64>,
+    believed_speed_m_s: f64,
+    last_move_target: Option<SurfacePoint>,
+    located: Vec<LocatedSample>,
+    backtracks: u32,
+    misses: u32,
+    first_acquisition: Vec<TactileFrame>,
+    recording_first: bool,
+    sensor_track: Vec<(f64, SurfacePoint, SurfacePoint)>,
+    next_track_sample_s: f64,
+    log: Vec<String>,
+    /// The true sensor at each recent frame, to score a localization at the time it was
+    /// made (its event may come out a few frames later, once the next move has begun).
+    recent_truth: std::collections::VecDeque<(f64, SurfacePoint)>,
+}
+
+/// Frames of true positions kept for scoring late events (a second at 100 Hz).
+const RECENT_FRAMES: usize = 100;
+
+impl Lockstep {
+    fn new(
+        scene: &Scene,
+        config: &config::Config,
+        tracker: &str,
+        seed: u64,
+    ) -> Result<Self, SimError> {
+        let robot = &config.robot;
+        let model = ArmModel::new(
+            robot.phantom,
+            robot.joint_limits,
+            robot.pivot,
+            robot.tissue,
+            robot.sensor_offset_m,
+        )?;
+        let tracker = control::tracker::build(tracker, &config.tracker.params, &config.sensor)
+            .map_err(|e| match e {
+                control::tracker::BuildError::Unknown(u) => SimError::UnknownTracker {
+                    name: u.name,
+                    known: control::tracker::TRACKER_NAMES.join(", "),
+                },
+                other => SimError::Control(other.to_string()),
+            })?;
+        let bench = Bench::new(scene, config, seed, scene.robot.is_none())?;
+        let pd =
+            PdController::new(config.control.pd).map_err(|e| SimError::Control(e.to_string()))?;
+        let planner = MotionPlanner::new(config.control.motion)
+            .map_err(|e| SimError::Control(e.to_string()))?;
+        let mut lockstep = Self {
+            bench,
+            model,
+            pd,
+            planner,
+            gravity: PhantomGravity::new(&config.robot.link_masses),
+            tracker,
+            rest_setpoint: None,
+            believed: Point3::origin(),
+            believed_speed_m_s: 0.0,
+            last_move_target: None,
+            located: Vec::new(),
+            backtracks: 0,
+            misses: 0,
+            first_acquisition: Vec::new(),
+            recording_first: false,
+            sensor_track: Vec::new(),
+            next_track_sample_s: 0.0,
+            log: Vec::new(),
+            recent_truth: std::collections::VecDeque::with_capacity(RECENT_FRAMES + 1),
+        };
+        lockstep.update_belief()?;
+        Ok(lockstep)
+    }
+
+    fn now(&self) -> f64 {
+        self.bench.now_s()
+    }
+
+    /// Read the encoders and work out where the robot believes the sensor is.
+    fn update_belief(&mut self) -> Result<(), SimError> {
+        if self.bench.is_ideal() {
+            let t = self.now();
+            match self.planner.setpoint(t) {
+                Some((p, v)) => {
+                    self.believed = p;
+                    self.believed_speed_m_s = v.x.hypot(v.z);
+                }
+                None => {
+                    let s = self.bench.truth().sensor;
+                    self.believed = Point3::new(s.x_m, 0.0, s.z_m);
+                    self.believed_speed_m_s = 0.0;
+                }
+            }
+            return Ok(());
+        }
+        let state = self.bench.read_joints();
+        self.believed = self.model.sensor_from_joints(&state.position_rad)?;
+        Ok(())
+    }
+
+    /// The believed sensor speed over the surface (for settling), from the filtered joint
+    /// rates through the model's Jacobian.
+    fn update_believed_speed(&mut self) -> Result<(), SimError> {
+        if self.bench.is_ideal() {
+            return Ok(());
+        }
+        let state = self.bench.read_joints();
+        let j = self.model.sensor_jacobian(&state.position_rad)?;
+        let v = j * Vector3::from(state.velocity_rad_s);
+        self.believed_speed_m_s = v.x.hypot(v.z);
+        Ok(())
+    }
+
+    fn believed_surface(&self) -> SurfacePoint {
+        SurfacePoint::new(self.believed.x, self.believed.z)
+    }
+
+    /// The joint setpoint for the planner's setpoint now. At rest it is control's
+    /// `ArmModel::joint_setpoint`, cached while the planner holds still. During a move it is
+    /// the same map computed from `ArmModel`'s inverse kinematics and Jacobian directly: the
+    /// 3x3 SVD conditioning guard inside `joint_setpoint` costs about 2 µs, more than the
+    /// whole plant step, so the runner applies it once per move, at the move's target
+    /// ([`Self::apply`]), instead of every millisecond.
+    fn joint_setpoint(&mut self) -> Result<Option<JointSetpoint>, SimError> {
+        let t = self.now();
+        let Some((p, v)) = self.planner.setpoint(t) else {
+            return Ok(None);
+        };
+        if v.norm() == 0.0 {
+            if let Some((cached_p, sp)) = self.rest_setpoint
+                && cached_p == p
+            {
+                return Ok(Some(sp));
+            }
+            let sp = self.model.joint_setpoint(&p, &v)?;
+            self.rest_setpoint = Some((p, sp));
+            return Ok(Some(sp));
+        }
+        let q = self.model.joints_for_sensor(&p)?;
+        let j = self.model.sensor_jacobian(&q)?;
+        let rates = j.lu().solve(&v).ok_or(SimError::Kinematics(
+            control::kinematics::KinematicsError::Singular {
+                what: "sensor Jacobian",
+            },
+        ))?;
+        let sp = JointSetpoint {
+            position_rad: q,
+            velocity_rad_s: [rates.x, rates.y, rates.z],
+        };
+        if !sp.is_finite() {
+            return Err(SimError::NonFinite("joint setpoint"));
+        }
+        Ok(Some(sp))
+    }
+
+    /// One servo period; returns the tactile frame sampled in it, if any.
+    fn servo(&mut self) -> Result<Option<TactileFrame>, Stop> {
+        if self.bench.is_ideal() {
+            // The ideal robot is where the setpoint is at the end of this period.
+            if let Some((p, _)) = self.planner.setpoint(self.now() + self.bench.dt_s()) {
+                self.bench.place_ideal(SurfacePoint::new(p.x, p.z));
+            }
+        } else {
+            let state = self.bench.read_joints();
+            let setpoint = self
+                .joint_setpoint()
+                .map_err(|e| Stop::Fault(e.to_string()))?;
+            let torques = match setpoint {
+                Some(sp) => {
+                    let g = self.gravity.torque_nm(&state.position_rad);
+                    self.pd
+                        .step(&sp, &state, &g, self.bench.dt_s())
+                        .map_err(|e| Stop::Fault(format!("PD: {e}")))?
+                }
+                None => JointTorques::ZERO,
+            };
+            self.bench
+                .write_torques(&torques)
+                .map_err(|e| Stop::Fault(e.to_string()))?;
+        }
+        let frame = self.bench.step();
+        if self.now() > TRIAL_TIME_LIMIT_S {
+            return Err(Stop::Timeout);
+        }
+        if self.now() >= self.next_track_sample_s {
+            self.next_track_sample_s += TRACK_SAMPLE_S;
+            let _ = self.update_belief();
+            let truth = self.bench.truth();
+            self.sensor_track
+                .push((self.now(), self.believed_surface(), truth.sensor));
+        }
+        Ok(frame)
+    }
+
+    /// Run servo periods until the next tactile frame; refresh the belief then.
+    fn next_frame(&mut self) -> Result<TactileFrame, Stop> {
+        loop {
+            if let Some(f) = self.servo()? {
+                self.update_belief()
+                    .and_then(|()| self.update_believed_speed())
+                    .map_err(|e| Stop::Fault(e.to_string()))?;
+                if self.recording_first {
+                    self.first_acquisition.push(f);
+                }
+                let truth = self.bench.truth();
+                if self.recent_truth.len() == RECENT_FRAMES {
+                    self.recent_truth.pop_front();
+                }
+                self.recent_truth.push_back((f.t_s, truth.sensor));
+                return Ok(f);
+            }
+        }
+    }
+
+    /// Start a straight move of the sensor to `target` from where the setpoint is now.
+    fn move_to(&mut self, target: SurfacePoint, speed_m_s: f64) -> Result<(), SimError> {
+        let t = self.now();
+        let from = self
+            .planner
+            .setpoint(t)
+            .map(|(p, _)| p)
+            .unwrap_or(self.believed);
+        self.planner
+            .start_from_point(from, target, speed_m_s, t)
+            .map_err(|e| SimError::Control(e.to_string()))?;
+        self.last_move_target = Some(target);
+        Ok(())
+    }
+
+    fn hold_here(&mut self) -> Result<(), SimError> {
+        let t = self.now();
+        let here = self
+            .planner
+            .setpoint(t)
+            .map(|(p, _)| p)
+            .unwrap_or(self.believed);
+        self.planner
+            .hold_point(here, t)
+            .map_err(|e| SimError::Control(e.to_string()))?;
+        self.last_move_target = None;
+        Ok(())
+    }
+
+    fn settled(&self) -> bool {
+        if self.planner.target().is_none() {
+            return true;
+        }
+        self.planner
+            .settled(self.believed_surface(), self.believed_speed_m_s, self.now())
+    }
+
+    /// The surgeon moves the sensor to a placement and waits for it to settle.
+    fn place(&mut self, at: SurfacePoint) -> Result<(), Stop> {
+        self.move_to(at, PLACEMENT_SPEED_M_S)
+            .map_err(|e| Stop::Fault(e.to_string()))?;
+        loop {
+            self.next_frame()?;
+            if self.settled() {
+                return Ok(());
+            }
+        }
+    }
+
+    /// Apply a tracker's motion command.
+    fn apply(&mut self, motion: MotionCommand) -> Result<(), SimError> {
+        match motion {
+            MotionCommand::MoveTo { target, speed_m_s } => {
+                if self.last_move_target != Some(target) {
+                    // The target must be reachable, and well conditioned, before the arm
+                    // is sent there.
+                    let p = self.planner.contact_point(&target);
+                    self.model.joint_setpoint(&p, &Vector3::zeros())?;
+                    self.move_to(target, speed_m_s)?;
+                }
+            }
+            MotionCommand::Hold => {
+                let moving = self
+                    .planner
+                    .finish_time_s()
+                    .is_some_and(|end| self.now() < end);
+                if moving {
+                    self.hold_here()?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Feed one frame to the tracker and act on its answer; returns the event.
+    fn feed(&mut self, frame: &TactileFrame) -> Result<Option<TrackerEvent>, Stop> {
+        let input = TrackerInput {
+            frame,
+            sensor: self.believed_surface(),
+            settled: self.settled(),
+        };
+        let out = self.tracker.step(&input);
+        if let Err(e) = self.apply(out.motion) {
+            match e {
+                SimError::Kinematics(_) => self.tracker.target_unreachable(),
+                other => return Err(Stop::Fault(other.to_string())),
+            }
+        }
+        if let Some(ev) = out.event {
+            let truth = self.bench.truth();
+            let off = self.bench.path().nearest(truth.sensor);
+            self.log.push(format!(
+                "{:8.2} s  believed ({:7.2}, {:7.2}) mm  true ({:7.2}, {:7.2}) mm  {:5.2} mm off the artery at {:5.1} mm  {ev:?}",
+                self.now(),
+                self.believed.x * 1e3,
+                self.believed.z * 1e3,
+                truth.sensor.x_m * 1e3,
+                truth.sensor.z_m * 1e3,
+                off.offset_m * 1e3,
+                off.s_m * 1e3,
+            ));
+            match ev {
+                TrackerEvent::Located(p) => {
+                    let sensor = self.true_sensor_at(p.t_s);
+                    self.located.push(LocatedSample {
+                        t_s: p.t_s,
+                        x_m: p.point.x_m,
+                        z_m: p.point.z_m,
+                        true_x_m: sensor.x_m + (p.point.x_m - p.sensor.x_m),
+                        true_z_m: sensor.z_m + (p.point.z_m - p.sensor.z_m),
+                        seed: p.seed,
+                        lateral_error_m: 0.0,
+                        along_path_m: 0.0,
+                    });
+                }
+                TrackerEvent::Backtracking { .. } => self.backtracks += 1,
+                TrackerEvent::Missed { .. } => self.misses += 1,
+                TrackerEvent::Pulse { .. } | TrackerEvent::Finished { .. } => {}
+            }
+        }
+        Ok(out.event)
+    }
+
+    /// Where the sensor truly was at the frame stamped nearest `t_s`.
+    fn true_sensor_at(&mut self, t_s: f64) -> SurfacePoint {
+        self.recent_truth
+            .iter()
+            .min_by(|a, b| (a.0 - t_s).abs().total_cmp(&(b.0 - t_s).abs()))
+            .map(|&(_, s)| s)
+            .unwrap_or_else(|| self.bench.truth().sensor)
+    }
+
+    /// Mark at the current placement until the tracker reports the seed point or a miss.
+    fn mark(&mut self) -> Result<bool, Stop> {
+        for _ in 0..MARK_ATTEMPTS {
+            self.tracker
+                .mark()
+                .map_err(|e| Stop::Fault(format!("mark refused: {e}")))?;
+            loop {
+                let frame = self.next_frame()?;
+                match self.feed(&frame)? {
+                    Some(TrackerEvent::Located(p)) if p.seed => return Ok(true),
+                    Some(TrackerEvent::Missed { .. }) => break,
+                    // Done marking and nothing left to report: the mark found nothing.
+                    None if !matches!(self.tracker.phase(), TrackerPhase::Marking) => break,
+                    _ => {}
+                }
+            }
+        }
+        Ok(false)
+    }
+
+    fn run(&mut self, scene: &Scene) -> Result<TrialResult, SimError> {
+        self.bench.set_enabled(true);
+        self.pd.reset();
+        self.hold_here()?;
+        let mut outcome = Outcome::default();
+        let seeded = (|| -> Result<bool, Stop> {
+            for (i, placement) in scene.placements.iter().enumerate() {
+                self.place(*placement)?;
+                self.recording_first = i == 0;
+                let found = self.mark()?;
+                self.recording_first = false;
+                if !found {
+                    return Ok(false);
+                }
+            }
+            Ok(true)
+        })();
+        match seeded {
+            Ok(true) => self.track(scene, &mut outcome),
+            Ok(false) => {
+                outcome.end_reason = "not_seeded".into();
+                outcome.detail =
+                    Some("a manual placement found no pulse after repeated marks".into());
+            }
+            Err(stop) => outcome.stopped(stop),
+        }
+        let t_end = self.now();
+        let mut located = std::mem::take(&mut self.located);
+        let lateral = TrialResult::score(self.bench.path(), &mut located);
+        let tracked_length_m = located
+            .windows(2)
+            .map(|w| (w[1].x_m - w[0].x_m).hypot(w[1].z_m - w[0].z_m))
+            .sum();
+        let (duration_s, beats) = match outcome.tracking_from_s {
+            Some(t0) => {
+                let b0 = outcome.beats_at_start;
+                (
+                    t_end - t0,
+                    self.bench.beats_started_by(t_end).saturating_sub(b0),
+                )
+            }
+            None => (0.0, 0),
+        };
+        Ok(TrialResult {
+            seed: 0,
+            located,
+            duration_s,
+            beats,
+            backtracks: self.backtracks,
+            misses: self.misses,
+            completed: outcome.end_reason == EndReason::LengthReached.as_str(),
+            end_reason: outcome.end_reason,
+            detail: outcome.detail,
+            lateral_error_m: lateral,
+            tracked_length_m,
+            simulated_s: t_end,
+            wall_s: 0.0,
+            first_acquisition: std::mem::take(&mut self.first_acquisition),
+            sensor_track: std::mem::take(&mut self.sensor_track),
+            log: std::mem::take(&mut self.log),
+        })
+    }
+
+    /// Autonomous tracking from the two seed points to the tracker's end.
+    fn track(&mut self, scene: &Scene, outcome: &mut Outcome) {
+        let limit = TrackLimit {
+            length_m: Some(scene.track.length_m),
+        };
+        if let Err(e) = self.tracker.start(limit) {
+            outcome.end_reason = "not_seeded".into();
+            outcome.detail = Some(format!("tracking refused to start: {e}"));
+            return;
+        }
+        let t0 = self.now();
+        outcome.tracking_from_s = Some(t0);
+        outcome.beats_at_start = self.bench.beats_started_by(t0);
+        loop {
+            let step = self.next_frame().and_then(|f| self.feed(&f));
+            match step {
+                Ok(Some(TrackerEvent::Finished { reason, .. })) => {
+                    outcome.end_reason = reason.as_str().to_string();
+                    return;
+                }
+                Ok(_) => {}
+                Err(stop) => {
+                    outcome.stopped(stop);
+                    return;
+                }
+            }
+        }
+    }
+}
+
+/// How the trial ended, collected while it runs.
+#[derive(Debug, Default)]
+struct Outcome {
+    end_reason: String,
+    detail: Option<String>,
+    tracking_from_s: Option<f64>,
+    beats_at_start: u64,
+}
+
+impl Outcome {
+    fn stopped(&mut self, stop: Stop) {
+        match stop {
+            Stop::Timeout => {
+                self.end_reason = "timeout".into();
+                self.detail = Some(format!(
+                    "the trial exceeded {TRIAL_TIME_LIMIT_S} s of simulated time"
+                ));
+            }
+            Stop::Fault(m) => {
+                self.end_reason = "fault".into();
+                self.detail = Some(m);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "runner_tests.rs"]
+mod tests;

@@ -1,0 +1,292 @@
+//! The lumen pressure over time: the seed's solenoid square wave, a physiological pulse with
+//! beat-to-beat variability, or none.
+//!
+//! Only the pulsatile part drives the surface kernel: the diastolic (or vented) pressure is
+//! carried by the tube wall and the tissue's prestress and appears as a constant that the
+//! trackers' band-pass removes, so [`PulseSource::pressure_pa`] returns pressure above
+//! diastole.
+
+use rand::rngs::ChaCha8Rng;
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+use crate::random::standard_normal;
+
+/// A scene's pressure waveform.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum PulseSpec {
+    /// The seed's bench: a latex tube inflated to `pressure_pa` and vented to the atmosphere
+    /// through a solenoid valve every `period_s`, open for `duty` of each period. Inflation
+    /// and venting are first-order with `time_constant_s` (tube compliance through the
+    /// valve's orifice).
+    Solenoid {
+        pressure_pa: f64,
+        period_s: f64,
+        #[serde(default = "half")]
+        duty: f64,
+        #[serde(default = "valve_tau")]
+        time_constant_s: f64,
+    },
+    /// A physiological arterial pulse: `diastolic_pa` to `systolic_pa`, mean heart rate
+    /// `heart_rate_hz`, beat-to-beat variability as the SD of the beat interval
+    /// (`interval_sd_s`) and of the pulse pressure (`pressure_sd_fraction`).
+    Physiological {
+        systolic_pa: f64,
+        diastolic_pa: f64,
+        heart_rate_hz: f64,
+        #[serde(default)]
+        interval_sd_s: f64,
+        #[serde(default)]
+        pressure_sd_fraction: f64,
+    },
+    /// No pulse at all (a hard case: the tracker must end cleanly).
+    Absent,
+}
+
+fn half() -> f64 {
+    0.5
+}
+
+fn valve_tau() -> f64 {
+    0.03
+}
+
+/// One beat: when it starts, how long it lasts and its pulse pressure.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Beat {
+    start_s: f64,
+    period_s: f64,
+    amplitude_pa: f64,
+}
+
+/// Generates the pulsatile pressure deterministically from a seed. Query times must not go
+/// backwards by more than one beat (the simulation only moves forward).
+#[derive(Debug)]
+pub struct PulseSource {
+    spec: PulseSpec,
+    rng: ChaCha8Rng,
+    previous: Beat,
+    current: Beat,
+    beats_started: u64,
+}
+
+impl PulseSource {
+    pub fn new(spec: &PulseSpec, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let first = Self::draw(spec, &mut rng, 0.0);
+        Self {
+            spec: spec.clone(),
+            rng,
+            previous: first,
+            current: first,
+            beats_started: 1,
+        }
+    }
+
+    fn draw(spec: &PulseSpec, rng: &mut ChaCha8Rng, start_s: f64) -> Beat {
+        match *spec {
+            PulseSpec::Solenoid {
+                pressure_pa,
+                period_s,
+                ..
+            } => Beat {
+                start_s,
+                period_s,
+                amplitude_pa: pressure_pa,
+            },
+            PulseSpec::Physiological {
+                systolic_pa,
+                diastolic_pa,
+                heart_rate_hz,
+                interval_sd_s,
+                pressure_sd_fraction,
+            } => {
+                let mean = 1.0 / heart_rate_hz;
+                // Keep intervals physiological: within ±40 % of the mean.
+                let period =
+                    (mean + interval_sd_s * standard_normal(rng)).clamp(0.6 * mean, 1.4 * mean);
+                let amp = (systolic_pa - diastolic_pa)
+                    * (1.0 + pressure_sd_fraction * standard_normal(rng)).clamp(0.5, 1.5);
+                Beat {
+                    start_s,
+                    period_s: period,
+                    amplitude_pa: amp,
+                }
+            }
+            PulseSpec::Absent => {
+                // Draw nothing; a notional 1 s "beat" keeps the bookkeeping uniform.
+                let _ = rng.next_u64();
+                Beat {
+                    start_s,
+                    period_s: 1.0,
+                    amplitude_pa: 0.0,
+                }
+            }
+        }
+    }
+
+    fn advance_to(&mut self, t_s: f64) {
+        while t_s >= self.current.start_s + self.current.period_s {
+            let next_start = self.current.start_s + self.current.period_s;
+            self.previous = self.current;
+            self.current = Self::draw(&self.spec, &mut self.rng, next_start);
+            self.beats_started += 1;
+        }
+    }
+
+    /// Pulsatile lumen pressure (above diastole / atmosphere) at `t_s`, Pa.
+    pub fn pressure_pa(&mut self, t_s: f64) -> f64 {
+        if t_s < 0.0 {
+            return 0.0;
+        }
+        self.advance_to(t_s);
+        match self.spec {
+            PulseSpec::Absent => 0.0,
+            PulseSpec::Solenoid {
+                duty,
+                time_constant_s,
+                ..
+            } => {
+                // The first-order tube pressure at the start of a beat carries over from the
+                // end of the previous one; with a time constant much shorter than a period it
+                // is near zero, and computing it in closed form keeps queries order-free.
+                let beat = self.current;
+                let open = duty * beat.period_s;
+                let tau = time_constant_s.max(1e-6);
+                let carry = {
+                    let prev = self.previous;
+                    let prev_open = duty * prev.period_s;
+                    let at_close = prev.amplitude_pa * (1.0 - (-prev_open / tau).exp());
+                    at_close * (-(prev.period_s - prev_open) / tau).exp()
+                };
+                let tb = t_s - beat.start_s;
+                if tb < open {
+                    beat.amplitude_pa + (carry - beat.amplitude_pa) * (-tb / tau).exp()
+                } else {
+                    let at_close =
+                        beat.amplitude_pa + (carry - beat.amplitude_pa) * (-open / tau).exp();
+                    at_close * (-(tb - open) / tau).exp()
+                }
+            }
+            PulseSpec::Physiological { .. } => {
+                let beat = self.current;
+                let phase = (t_s - beat.start_s) / beat.period_s;
+                beat.amplitude_pa * physiological_shape(phase)
+            }
+        }
+    }
+
+    /// Beats that have started at or before `t_s` (the first at t = 0). Counting beats in an
+    /// interval is the difference of two calls.
+    pub fn beats_started_by(&mut self, t_s: f64) -> u64 {
+        if t_s < 0.0 {
+            return 0;
+        }
+        self.advance_to(t_s);
+        self.beats_started
+    }
+
+    /// True if the scene has any pulse.
+    pub fn is_absent(&self) -> bool {
+        matches!(self.spec, PulseSpec::Absent)
+    }
+}
+
+/// A radial-artery-like pressure contour over one beat (`phase` in [0, 1)), normalized to
+/// span 0 (end diastole) to 1 (systolic peak): a fast systolic upstroke, a reflected-wave
+/// shoulder, the dicrotic wave and an exponential diastolic run-off (smooth bumps: systolic
+/// wave, late-systolic reflection, dicrotic wave), tapered to zero at the beat's end so the
+/// contour is continuous across beats.
+pub fn physiological_shape(phase: f64) -> f64 {
+    let p = phase.clamp(0.0, 1.0);
+    (raw_shape(p) / *SHAPE_PEAK).clamp(0.0, 1.0)
+}
+
+fn raw_shape(p: f64) -> f64 {
+    let bump = |centre: f64, width: f64| (-((p - centre) / width).powi(2)).exp();
+    let raw = bump(0.16, 0.07) + 0.45 * bump(0.32, 0.08) + 0.22 * bump(0.52, 0.07);
+    let decay = 0.18 * (-(p - 0.55).max(0.0) / 0.25).exp() * smooth_step(p, 0.35, 0.6);
+    (raw + decay) * (1.0 - smooth_step(p, 0.85, 1.0))
+}
+
+/// The raw contour's maximum (at the systolic peak), for normalization.
+static SHAPE_PEAK: std::sync::LazyLock<f64> = std::sync::LazyLock::new(|| {
+    (0..=10_000)
+        .map(|i| raw_shape(i as f64 / 10_000.0))
+        .fold(f64::MIN, f64::max)
+});
+
+fn smooth_step(x: f64, a: f64, b: f64) -> f64 {
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solenoid_reaches_pressure_and_vents() {
+        let spec = PulseSpec::Solenoid {
+            pressure_pa: 100e3,
+            period_s: 1.0,
+            duty: 0.5,
+            time_constant_s: 0.03,
+        };
+        let mut p = PulseSource::new(&spec, 1);
+        assert!((p.pressure_pa(0.45) - 100e3).abs() < 10.0);
+        assert!(p.pressure_pa(0.95) < 10.0);
+        assert!((p.pressure_pa(10.45) - 100e3).abs() < 10.0);
+        assert_eq!(p.beats_started_by(10.5), 11);
+    }
+
+    #[test]
+    fn physiological_shape_spans_zero_to_one() {
+        let samples: Vec<f64> = (0..1000)
+            .map(|i| physiological_shape(i as f64 / 1000.0))
+            .collect();
+        let max = samples.iter().cloned().fold(f64::MIN, f64::max);
+        let min = samples.iter().cloned().fold(f64::MAX, f64::min);
+        assert!((max - 1.0).abs() < 0.01, "peak {max}");
+        assert!((0.0..0.01).contains(&min), "trough {min}");
+        // Continuous across the beat boundary.
+        assert!((physiological_shape(0.0) - physiological_shape(0.9999)).abs() < 0.01);
+        // The peak is in early systole.
+        let i_max = samples.iter().position(|&v| v == max).unwrap();
+        assert!(
+            (100..250).contains(&i_max),
+            "peak at phase {}",
+            i_max as f64 / 1000.0
+        );
+    }
+
+    #[test]
+    fn physiological_pulse_varies_beat_to_beat_but_is_seeded() {
+        let spec = PulseSpec::Physiological {
+            systolic_pa: 16_000.0,
+            diastolic_pa: 10_667.0,
+            heart_rate_hz: 1.2,
+            interval_sd_s: 0.04,
+            pressure_sd_fraction: 0.05,
+        };
+        let run = |seed| {
+            let mut p = PulseSource::new(&spec, seed);
+            (0..3000)
+                .map(|i| p.pressure_pa(i as f64 * 0.01))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(run(3), run(3));
+        assert_ne!(run(3), run(4));
+        let mut p = PulseSource::new(&spec, 3);
+        let beats = p.beats_started_by(30.0);
+        // 1.2 Hz for 30 s: about 36 beats.
+        assert!((30..=42).contains(&beats), "{beats}");
+    }
+
+    #[test]
+    fn absent_pulse_is_zero() {
+        let mut p = PulseSource::new(&PulseSpec::Absent, 0);
+        assert!((0..100).all(|i| p.pressure_pa(i as f64 * 0.1) == 0.0));
+        assert!(p.is_absent());
+    }
+}

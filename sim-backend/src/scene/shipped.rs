@@ -1,0 +1,47 @@
+//! The scenes that ship with pulsetrack, embedded so they load with no files on disk.
+
+/// `(file name, RON text)` of every shipped scene.
+pub const SHIPPED: &[(&str, &str)] = &[
+    (
+        "seed-s-curve.ron",
+        include_str!("../../../config/scenes/seed-s-curve.ron"),
+    ),
+    (
+        "seed-arc-80.ron",
+        include_str!("../../../config/scenes/seed-arc-80.ron"),
+    ),
+    (
+        "seed-arc-145.ron",
+        include_str!("../../../config/scenes/seed-arc-145.ron"),
+    ),
+    (
+        "seed-arc-220.ron",
+        include_str!("../../../config/scenes/seed-arc-220.ron"),
+    ),
+    (
+        "seed-radial-wrist.ron",
+        include_str!("../../../config/scenes/seed-radial-wrist.ron"),
+    ),
+];
+
+const NAMES: &[&str] = &[
+    "seed-s-curve.ron",
+    "seed-arc-80.ron",
+    "seed-arc-145.ron",
+    "seed-arc-220.ron",
+    "seed-radial-wrist.ron",
+];
+
+/// The file names of the shipped scenes.
+pub fn shipped_names() -> &'static [&'static str] {
+    NAMES
+}
+
+/// A shipped scene's name and text, by file name with or without `.ron`.
+pub fn shipped_source(name: &str) -> Option<(&'static str, &'static str)> {
+    let wanted = name.strip_suffix(".ron").unwrap_or(name);
+    SHIPPED
+        .iter()
+        .find(|(n, _)| n.strip_suffix(".ron") == Some(wanted))
+        .copied()
+}

@@ -1,0 +1,288 @@
+//! The scene file's types. Every field is SI with a unit suffix; optional sections are
+//! effects that exist only when named.
+
+use control::frames::SurfacePoint;
+use control::kinematics::PhantomGeometry;
+use control::pd::gravity::PhantomMasses;
+use serde::{Deserialize, Serialize};
+
+use super::path::PathSpec;
+use super::pulse::PulseSpec;
+
+/// A whole scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename = "Scene", deny_unknown_fields)]
+pub struct Scene {
+    pub version: u32,
+    /// Short name used in reports (`seed-arc-145`).
+    pub name: String,
+    /// What the scene reproduces or studies.
+    #[serde(default)]
+    pub description: String,
+    pub artery: ArterySpec,
+    pub pulse: PulseSpec,
+    #[serde(default)]
+    pub tissue: TissueSpec,
+    /// Buried lumps that do not pulse (tumours, nodules).
+    #[serde(default)]
+    pub lumps: Vec<LumpSpec>,
+    #[serde(default)]
+    pub sensor: SensorSpec,
+    /// The rod's bending; absent: a rigid rod.
+    #[serde(default)]
+    pub shaft: Option<ShaftSpec>,
+    /// The incision's compliance and true position; absent: a rigid pivot exactly where the
+    /// configuration says.
+    #[serde(default)]
+    pub pivot: Option<PivotSpec>,
+    /// The mass hung on the shaft above the sensor; absent: none.
+    #[serde(default)]
+    pub mass: Option<MassSpec>,
+    /// The Phantom's dynamics; absent: the lockstep runner uses an ideal kinematic robot (the
+    /// sensor is exactly where the motion planner says) and the daemon's rig uses the
+    /// defaults of [`RobotSpec`].
+    #[serde(default)]
+    pub robot: Option<RobotSpec>,
+    #[serde(default)]
+    pub faults: Option<FaultSpec>,
+    /// The surgeon's two manual placements of the sensor centre, tissue frame, written as a
+    /// list of two points.
+    #[serde(deserialize_with = "two_points")]
+    pub placements: [SurfacePoint; 2],
+    /// How much artery to follow, and why that much.
+    pub track: TrackSpec,
+    /// Where the sensor centre rests on the tissue before the trial; default 1 cm before the
+    /// first placement along `-x`.
+    #[serde(default)]
+    pub start: Option<SurfacePoint>,
+}
+
+/// The artery (or the seed's latex tube).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArterySpec {
+    pub path: PathSpec,
+    /// Depth of the lumen's centre below the surface at the path's start, m.
+    pub depth_m: f64,
+    /// Depth at the path's end (linear in arc length between); default: constant.
+    #[serde(default)]
+    pub depth_end_m: Option<f64>,
+    /// Inner (lumen) radius at the start, m.
+    pub inner_radius_m: f64,
+    /// Inner radius at the end; default: constant.
+    #[serde(default)]
+    pub inner_radius_end_m: Option<f64>,
+    /// Wall thickness, m (sets the outer radius; the lumen pressure is taken as transmitted
+    /// through the wall, see docs/calibration.md).
+    pub wall_m: f64,
+}
+
+/// The tissue (or foam) the sensor slides on.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TissueSpec {
+    /// Normal contact stiffness under the sensor body, N/m.
+    pub contact_stiffness_n_per_m: f64,
+    /// Normal contact damping, N·s/m.
+    pub contact_damping_n_s_per_m: f64,
+    /// Sliding friction; absent: frictionless.
+    pub friction: Option<FrictionSpec>,
+}
+
+impl Default for TissueSpec {
+    fn default() -> Self {
+        Self {
+            contact_stiffness_n_per_m: 1000.0,
+            contact_damping_n_s_per_m: 15.0,
+            friction: None,
+        }
+    }
+}
+
+/// Coulomb friction between the sensor and the tissue, with the tissue surface's shear
+/// compliance before sliding (an elasto-plastic contact).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FrictionSpec {
+    pub static_coefficient: f64,
+    pub kinetic_coefficient: f64,
+    /// Tangential stiffness of the contact before it slides, N/m.
+    #[serde(default = "default_shear_stiffness")]
+    pub shear_stiffness_n_per_m: f64,
+}
+
+fn default_shear_stiffness() -> f64 {
+    2000.0
+}
+
+/// A buried lump that does not pulse: a static bump in the contact pressure over it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LumpSpec {
+    pub centre: SurfacePoint,
+    /// Depth of its centre, m.
+    pub depth_m: f64,
+    /// Peak extra contact pressure directly above it, as a fraction of the mean contact
+    /// pressure (a stiff inclusion concentrates the load).
+    pub pressure_gain: f64,
+}
+
+/// The tactile sensor (truth). The robot's belief about the array (pitch, direction, noise
+/// SD used by trackers) is the configuration's `sensor` section.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SensorSpec {
+    /// Element centre spacing along tissue `z`, m.
+    pub pitch_m: f64,
+    /// Sensing area of one element, m² (its width along `z` is the pitch).
+    pub element_area_m2: f64,
+    /// Noise SD of each element, N.
+    pub noise_sd_n: f64,
+    /// The sensor body: a cylinder lying along tissue `z` whose bottom edge carries the
+    /// elements.
+    pub body_length_m: f64,
+    pub body_diameter_m: f64,
+    /// From the body's distal end to the near edge of element 0, m.
+    pub distal_margin_m: f64,
+}
+
+impl Default for SensorSpec {
+    fn default() -> Self {
+        Self {
+            pitch_m: 0.002,
+            element_area_m2: 4.0e-6,
+            noise_sd_n: 0.012,
+            body_length_m: 0.034,
+            body_diameter_m: 0.009,
+            distal_margin_m: 0.001,
+        }
+    }
+}
+
+/// The rod's bending stiffness.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShaftSpec {
+    pub diameter_m: f64,
+    pub youngs_modulus_pa: f64,
+    /// Material density, kg/m³ (for the rod's weight).
+    #[serde(default = "steel_density")]
+    pub density_kg_m3: f64,
+    /// True rod length if it differs from the configuration's, m.
+    #[serde(default)]
+    pub length_m: Option<f64>,
+}
+
+fn steel_density() -> f64 {
+    7850.0
+}
+
+/// The incision.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PivotSpec {
+    /// True pivot minus the configured one, robot base frame, m.
+    pub offset_m: [f64; 3],
+    /// Lateral stiffness of the incision point, N/m; absent: rigid.
+    pub lateral_stiffness_n_per_m: Option<f64>,
+}
+
+impl Default for PivotSpec {
+    fn default() -> Self {
+        Self {
+            offset_m: [0.0; 3],
+            lateral_stiffness_n_per_m: None,
+        }
+    }
+}
+
+/// The mass hung on the shaft for contact force.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MassSpec {
+    pub mass_kg: f64,
+    /// How far above the rod tip it hangs, m.
+    #[serde(default = "mass_height")]
+    pub height_above_tip_m: f64,
+}
+
+fn mass_height() -> f64 {
+    0.03
+}
+
+/// The Phantom's true dynamics.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RobotSpec {
+    /// True link lengths if they differ from the configuration's.
+    pub phantom: Option<PhantomGeometry>,
+    /// Inertia about each joint (motor and capstan reflected, links), kg·m².
+    pub joint_inertia_kg_m2: [f64; 3],
+    /// Coulomb friction at each joint, N·m.
+    pub coulomb_friction_nm: [f64; 3],
+    /// Viscous friction at each joint, N·m·s/rad.
+    pub viscous_friction_nm_s: [f64; 3],
+    /// The arm's moving bodies as gravity sees them; absent: the same as the controller's
+    /// gravity model believes (control's documented Phantom 1.5 values).
+    pub masses: Option<PhantomMasses>,
+    /// Encoder counts per motor revolution.
+    pub encoder_counts_per_rev: f64,
+    /// Capstan reduction per joint.
+    pub capstan_ratio: [f64; 3],
+    /// Time constant of the velocity estimate from encoder differences, s.
+    pub velocity_filter_s: f64,
+    /// Largest torque the amplifiers deliver at each joint, N·m.
+    pub torque_saturation_nm: [f64; 3],
+}
+
+impl Default for RobotSpec {
+    fn default() -> Self {
+        Self {
+            phantom: None,
+            joint_inertia_kg_m2: [0.0040, 0.0020, 0.0010],
+            coulomb_friction_nm: [0.012, 0.010, 0.010],
+            viscous_friction_nm_s: [0.002, 0.002, 0.002],
+            masses: None,
+            encoder_counts_per_rev: 1024.0,
+            capstan_ratio: [13.3, 11.2, 11.2],
+            velocity_filter_s: 0.005,
+            torque_saturation_nm: [1.2, 1.0, 1.0],
+        }
+    }
+}
+
+/// Faults injected into the bench.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FaultSpec {
+    /// Elements that read only noise.
+    pub dead_elements: Vec<usize>,
+    /// Probability that a tactile frame is lost (a gap in `seq`).
+    pub frame_drop_probability: f64,
+}
+
+impl Default for FaultSpec {
+    fn default() -> Self {
+        Self {
+            dead_elements: Vec::new(),
+            frame_drop_probability: 0.0,
+        }
+    }
+}
+
+/// How much artery a trial follows.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrackSpec {
+    /// Path length to follow from the first placement, m.
+    pub length_m: f64,
+    /// Why this length (e.g. where the artery turns too far toward the element line).
+    pub reason: String,
+}
+
+fn two_points<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[SurfacePoint; 2], D::Error> {
+    let points = Vec::<SurfacePoint>::deserialize(d)?;
+    let n = points.len();
+    <[SurfacePoint; 2]>::try_from(points)
+        .map_err(|_| serde::de::Error::custom(format!("expected exactly two placements, got {n}")))
+}

@@ -1,0 +1,360 @@
+//! Semantic checks of a scene, each problem named by its field path.
+
+use config::{Validate, Validator};
+
+use super::SCENE_VERSION;
+use super::path::{ArteryPath, PathSpec};
+use super::pulse::PulseSpec;
+use super::spec::*;
+
+impl Validate for Scene {
+    fn validate(&self, v: &mut Validator) {
+        v.check(
+            self.version == SCENE_VERSION,
+            "version",
+            format!(
+                "unsupported version {} (this build reads {SCENE_VERSION})",
+                self.version
+            ),
+        );
+        v.check(!self.name.trim().is_empty(), "name", "must name the scene");
+        v.section("artery", &self.artery);
+        v.section("pulse", &self.pulse);
+        v.section("tissue", &self.tissue);
+        for (i, lump) in self.lumps.iter().enumerate() {
+            v.section(&format!("lumps[{i}]"), lump);
+        }
+        v.section("sensor", &self.sensor);
+        if let Some(s) = &self.shaft {
+            v.section("shaft", s);
+        }
+        if let Some(p) = &self.pivot {
+            v.section("pivot", p);
+        }
+        if let Some(m) = &self.mass {
+            v.at("mass", |v| {
+                v.in_range("mass_kg", m.mass_kg, 0.0, 5.0);
+                v.in_range("height_above_tip_m", m.height_above_tip_m, 0.0, 0.4);
+            });
+        }
+        if let Some(r) = &self.robot {
+            v.section("robot", r);
+        }
+        if let Some(f) = &self.faults {
+            v.at("faults", |v| {
+                for (i, &e) in f.dead_elements.iter().enumerate() {
+                    v.check(
+                        e < control::types::ELEMENTS,
+                        &format!("dead_elements[{i}]"),
+                        format!(
+                            "element {e} does not exist (0..{})",
+                            control::types::ELEMENTS
+                        ),
+                    );
+                }
+                v.in_range("frame_drop_probability", f.frame_drop_probability, 0.0, 0.9);
+            });
+        }
+        for (i, p) in self.placements.iter().enumerate() {
+            v.at(&format!("placements[{i}]"), |v| {
+                v.in_range("x_m", p.x_m, -1.0, 1.0);
+                v.in_range("z_m", p.z_m, -1.0, 1.0);
+            });
+        }
+        let [a, b] = self.placements;
+        if a.is_finite() && b.is_finite() {
+            v.check(
+                a.distance_to(&b) >= 0.002,
+                "placements[1]",
+                format!(
+                    "the two placements are {:.1} mm apart; they must be at least 2 mm apart to give a direction",
+                    a.distance_to(&b) * 1e3
+                ),
+            );
+        }
+        v.at("track", |v| {
+            v.in_range("length_m", self.track.length_m, 0.001, 2.0);
+            v.check(
+                !self.track.reason.trim().is_empty(),
+                "reason",
+                "say why this length is tracked",
+            );
+        });
+        if let Some(s) = &self.start {
+            v.at("start", |v| {
+                v.in_range("x_m", s.x_m, -1.0, 1.0);
+                v.in_range("z_m", s.z_m, -1.0, 1.0);
+            });
+        }
+    }
+}
+
+impl Validate for ArterySpec {
+    fn validate(&self, v: &mut Validator) {
+        v.at("path", |v| validate_path(&self.path, v));
+        v.in_range("depth_m", self.depth_m, 1e-4, 0.1);
+        if let Some(d) = self.depth_end_m {
+            v.in_range("depth_end_m", d, 1e-4, 0.1);
+        }
+        v.in_range("inner_radius_m", self.inner_radius_m, 1e-5, 0.02);
+        if let Some(r) = self.inner_radius_end_m {
+            v.in_range("inner_radius_end_m", r, 1e-5, 0.02);
+        }
+        v.in_range("wall_m", self.wall_m, 0.0, 0.01);
+        // The tube must lie under the surface everywhere.
+        let ends = [
+            (self.depth_m, self.inner_radius_m, "depth_m"),
+            (
+                self.depth_end_m.unwrap_or(self.depth_m),
+                self.inner_radius_end_m.unwrap_or(self.inner_radius_m),
+                "depth_end_m",
+            ),
+        ];
+        for (depth, radius, field) in ends {
+            if depth.is_finite() && radius.is_finite() && self.wall_m.is_finite() {
+                v.check(
+                    depth > radius + self.wall_m,
+                    field,
+                    format!(
+                        "the tube (outer radius {:.2} mm) would break the surface at a depth of {:.2} mm",
+                        (radius + self.wall_m) * 1e3,
+                        depth * 1e3
+                    ),
+                );
+            }
+        }
+    }
+}
+
+fn validate_path(spec: &PathSpec, v: &mut Validator) {
+    match spec {
+        PathSpec::Arc {
+            radius_m, length_m, ..
+        }
+        | PathSpec::SCurve { radius_m, length_m } => {
+            v.in_range("radius_m", *radius_m, 1e-3, 10.0);
+            v.in_range("length_m", *length_m, 1e-3, 2.0);
+        }
+        PathSpec::Straight {
+            start,
+            heading_rad,
+            length_m,
+        } => {
+            v.finite("start.x_m", start.x_m);
+            v.finite("start.z_m", start.z_m);
+            v.finite("heading_rad", *heading_rad);
+            v.in_range("length_m", *length_m, 1e-3, 2.0);
+        }
+        PathSpec::Polyline { points } | PathSpec::Spline { points, .. } => {
+            for (i, p) in points.iter().enumerate() {
+                v.in_range(&format!("points[{i}].x_m"), p.x_m, -1.0, 1.0);
+                v.in_range(&format!("points[{i}].z_m"), p.z_m, -1.0, 1.0);
+            }
+        }
+    }
+    // Whatever the numbers, the path must build.
+    if let Err(e) = ArteryPath::from_spec(spec) {
+        v.problem("", e.to_string());
+    }
+}
+
+impl Validate for PulseSpec {
+    fn validate(&self, v: &mut Validator) {
+        match *self {
+            PulseSpec::Solenoid {
+                pressure_pa,
+                period_s,
+                duty,
+                time_constant_s,
+            } => {
+                v.in_range("pressure_pa", pressure_pa, 0.0, 1.0e6);
+                v.in_range("period_s", period_s, 0.1, 10.0);
+                v.in_range("duty", duty, 0.05, 0.95);
+                v.in_range("time_constant_s", time_constant_s, 0.0, 1.0);
+            }
+            PulseSpec::Physiological {
+                systolic_pa,
+                diastolic_pa,
+                heart_rate_hz,
+                interval_sd_s,
+                pressure_sd_fraction,
+            } => {
+                v.in_range("systolic_pa", systolic_pa, 0.0, 1.0e5);
+                v.in_range("diastolic_pa", diastolic_pa, 0.0, 1.0e5);
+                v.check(
+                    systolic_pa >= diastolic_pa,
+                    "systolic_pa",
+                    "must not be below diastolic_pa",
+                );
+                v.in_range("heart_rate_hz", heart_rate_hz, 0.3, 4.0);
+                v.in_range("interval_sd_s", interval_sd_s, 0.0, 0.5);
+                v.in_range("pressure_sd_fraction", pressure_sd_fraction, 0.0, 0.5);
+            }
+            PulseSpec::Absent => {}
+        }
+    }
+}
+
+impl Validate for TissueSpec {
+    fn validate(&self, v: &mut Validator) {
+        v.in_range(
+            "contact_stiffness_n_per_m",
+            self.contact_stiffness_n_per_m,
+            10.0,
+            1.0e6,
+        );
+        v.in_range(
+            "contact_damping_n_s_per_m",
+            self.contact_damping_n_s_per_m,
+            0.0,
+            1.0e4,
+        );
+        if let Some(f) = &self.friction {
+            v.at("friction", |v| {
+                v.in_range("static_coefficient", f.static_coefficient, 0.0, 3.0);
+                v.in_range("kinetic_coefficient", f.kinetic_coefficient, 0.0, 3.0);
+                v.check(
+                    f.kinetic_coefficient <= f.static_coefficient,
+                    "kinetic_coefficient",
+                    "must not exceed static_coefficient",
+                );
+                v.in_range(
+                    "shear_stiffness_n_per_m",
+                    f.shear_stiffness_n_per_m,
+                    1.0,
+                    1.0e7,
+                );
+            });
+        }
+    }
+}
+
+impl Validate for LumpSpec {
+    fn validate(&self, v: &mut Validator) {
+        v.finite("centre.x_m", self.centre.x_m);
+        v.finite("centre.z_m", self.centre.z_m);
+        v.in_range("depth_m", self.depth_m, 1e-4, 0.1);
+        v.in_range("pressure_gain", self.pressure_gain, 0.0, 20.0);
+    }
+}
+
+impl Validate for SensorSpec {
+    fn validate(&self, v: &mut Validator) {
+        v.in_range("pitch_m", self.pitch_m, 1e-4, 0.02);
+        v.in_range("element_area_m2", self.element_area_m2, 1e-8, 1e-3);
+        v.in_range("noise_sd_n", self.noise_sd_n, 0.0, 10.0);
+        v.in_range("body_diameter_m", self.body_diameter_m, 1e-3, 0.05);
+        v.in_range("distal_margin_m", self.distal_margin_m, 0.0, 0.05);
+        let needed = self.distal_margin_m + control::types::ELEMENTS as f64 * self.pitch_m;
+        if v.finite("body_length_m", self.body_length_m) {
+            v.check(
+                self.body_length_m >= needed && self.body_length_m <= 0.2,
+                "body_length_m",
+                format!(
+                    "must hold the margin and all elements ({:.1} mm) and be at most 200 mm, got {:.1} mm",
+                    needed * 1e3,
+                    self.body_length_m * 1e3
+                ),
+            );
+        }
+    }
+}
+
+impl Validate for ShaftSpec {
+    fn validate(&self, v: &mut Validator) {
+        v.in_range("diameter_m", self.diameter_m, 1e-4, 0.05);
+        v.in_range("youngs_modulus_pa", self.youngs_modulus_pa, 1e6, 1e12);
+        v.in_range("density_kg_m3", self.density_kg_m3, 0.0, 25_000.0);
+        if let Some(l) = self.length_m {
+            v.in_range("length_m", l, 0.05, 2.0);
+        }
+    }
+}
+
+impl Validate for PivotSpec {
+    fn validate(&self, v: &mut Validator) {
+        for (i, &o) in self.offset_m.iter().enumerate() {
+            v.in_range(&format!("offset_m[{i}]"), o, -0.05, 0.05);
+        }
+        if let Some(k) = self.lateral_stiffness_n_per_m {
+            v.in_range("lateral_stiffness_n_per_m", k, 1.0, 1.0e8);
+        }
+    }
+}
+
+impl Validate for RobotSpec {
+    fn validate(&self, v: &mut Validator) {
+        if let Some(g) = &self.phantom {
+            v.at("phantom", |v| {
+                v.in_range("l1_m", g.l1_m, 0.05, 1.0);
+                v.in_range("l2_m", g.l2_m, 0.05, 1.0);
+            });
+        }
+        for i in 0..3 {
+            v.in_range(
+                &format!("joint_inertia_kg_m2[{i}]"),
+                self.joint_inertia_kg_m2[i],
+                1e-6,
+                10.0,
+            );
+            v.in_range(
+                &format!("coulomb_friction_nm[{i}]"),
+                self.coulomb_friction_nm[i],
+                0.0,
+                10.0,
+            );
+            v.in_range(
+                &format!("viscous_friction_nm_s[{i}]"),
+                self.viscous_friction_nm_s[i],
+                0.0,
+                10.0,
+            );
+            v.in_range(
+                &format!("capstan_ratio[{i}]"),
+                self.capstan_ratio[i],
+                0.1,
+                1000.0,
+            );
+            v.in_range(
+                &format!("torque_saturation_nm[{i}]"),
+                self.torque_saturation_nm[i],
+                1e-3,
+                100.0,
+            );
+        }
+        if let Some(m) = &self.masses {
+            v.at("masses", |v| {
+                v.in_range("gravity_m_s2", m.gravity_m_s2, 0.0, 20.0);
+                let named = [
+                    ("forearm", m.forearm),
+                    ("parallel_link", m.parallel_link),
+                    ("upper_arm", m.upper_arm),
+                    ("drive_link", m.drive_link),
+                    ("gimbal", m.gimbal),
+                ];
+                for (name, b) in named {
+                    v.in_range(&format!("{name}.mass_kg"), b.mass_kg, 0.0, 10.0);
+                    v.in_range(
+                        &format!("{name}.along_upper_arm_m"),
+                        b.along_upper_arm_m,
+                        -1.0,
+                        1.0,
+                    );
+                    v.in_range(
+                        &format!("{name}.along_forearm_m"),
+                        b.along_forearm_m,
+                        -1.0,
+                        1.0,
+                    );
+                }
+            });
+        }
+        v.in_range(
+            "encoder_counts_per_rev",
+            self.encoder_counts_per_rev,
+            1.0,
+            1.0e9,
+        );
+        v.in_range("velocity_filter_s", self.velocity_filter_s, 0.0, 1.0);
+    }
+}
