@@ -21,6 +21,7 @@ pub mod mesher;
 pub mod model;
 pub mod recovery;
 pub mod run;
+pub mod scene_validation;
 pub mod sparse;
 pub mod study;
 pub mod tactile;
