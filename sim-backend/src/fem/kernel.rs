@@ -471,7 +471,12 @@ mod tests {
         for (u0, ga, gb, tol) in [
             (0.0, 1.0, 0.0, 0.05),
             (0.008, 1.0, 0.0, 0.15),
-            (0.002, 0.7071, 0.7071, 0.05),
+            (
+                0.002,
+                std::f64::consts::FRAC_1_SQRT_2,
+                std::f64::consts::FRAC_1_SQRT_2,
+                0.05,
+            ),
         ] {
             let fem = k.rectangle_integral(u0, ga, gb, 0.001, 0.001);
             let exact = crate::physics::kernel::strength_n(1.0, a)
