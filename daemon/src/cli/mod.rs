@@ -1,6 +1,7 @@
 //! The `pulsetrack` command line: one module per subcommand.
 
 mod check_config;
+mod fem;
 mod sim;
 
 use std::process::ExitCode;
@@ -22,6 +23,8 @@ struct Cli {
 enum Command {
     /// Check a configuration or scene file and report every problem with file, line and field.
     CheckConfig(check_config::Args),
+    /// Run the tissue FEM: the seed papers' studies or one model file.
+    Fem(fem::Args),
     /// Run whole trials on the simulated bench in lockstep and report the tracking error.
     Sim(sim::Args),
 }
@@ -30,6 +33,7 @@ pub fn run() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::CheckConfig(args) => check_config::run(&args),
+        Command::Fem(args) => fem::run(&args),
         Command::Sim(args) => sim::run(&args),
     }
 }
