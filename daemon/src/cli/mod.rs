@@ -3,6 +3,7 @@
 mod check_config;
 pub mod console;
 mod demo;
+mod fem;
 mod sim;
 
 use std::process::ExitCode;
@@ -29,6 +30,8 @@ enum Command {
     Demo(demo::Args),
     #[command(flatten)]
     Console(console::Verb),
+    /// Run the tissue FEM: the seed papers' studies or one model file.
+    Fem(fem::Args),
     /// Run whole trials on the simulated bench in lockstep and report the tracking error.
     Sim(sim::Args),
 }
@@ -39,6 +42,7 @@ pub fn run() -> ExitCode {
         Command::CheckConfig(args) => check_config::run(&args),
         Command::Demo(args) => demo::run(&args),
         Command::Console(verb) => console::run(&verb),
+        Command::Fem(args) => fem::run(&args),
         Command::Sim(args) => sim::run(&args),
     }
 }
