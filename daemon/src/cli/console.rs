@@ -274,10 +274,30 @@ fn print_status(r: &Value) {
     }
     let l = &r["loop"];
     let p = &l["period"];
-    println!(
-        "loop       {} cycles, {} overruns; period p50 {} us, p99 {} us, p99.9 {} us, max {} us",
-        l["cycles"], l["overruns"], p["p50_us"], p["p99_us"], p["p999_us"], p["max_us"]
-    );
+    if p.is_null() {
+        println!(
+            "loop       {} cycles, {} overruns; period not reported yet",
+            l["cycles"], l["overruns"]
+        );
+    } else {
+        println!(
+            "loop       {} cycles, {} overruns; period p50 {} us, p99 {} us, p99.9 {} us, max {:.0} us{}",
+            l["cycles"],
+            l["overruns"],
+            p["p50_us"],
+            p["p99_us"],
+            p["p999_us"],
+            p["max_us"].as_f64().unwrap_or(f64::NAN),
+            if p["batched"] == Value::Bool(true) {
+                format!(
+                    " (1 ms batches; {:.1}x real time)",
+                    p["achieved_time_scale"].as_f64().unwrap_or(f64::NAN)
+                )
+            } else {
+                String::new()
+            }
+        );
+    }
 }
 
 fn subscribe(c: &mut Client, streams: &[&str], tactile_every: u32) -> Result<(), String> {
@@ -365,6 +385,13 @@ pub fn describe_event(e: &Value) -> Option<String> {
     }
 }
 
+/// Print a line; false once stdout is gone (a closed pipe ends `watch` quietly).
+fn emit(line: &str) -> bool {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{line}").and_then(|()| out.flush()).is_ok()
+}
+
 fn watch(c: &mut Client, streams: &[String], every: u32, raw: bool) -> Result<ExitCode, String> {
     let names: Vec<&str> = if streams.is_empty() {
         vec!["state", "detections", "faults", "trials"]
@@ -375,10 +402,15 @@ fn watch(c: &mut Client, streams: &[String], every: u32, raw: bool) -> Result<Ex
     loop {
         match c.next_event(Duration::from_secs(3600)) {
             Ok(Some(e)) => {
-                if raw {
-                    println!("{e}");
-                } else if let Some(line) = describe_event(&e) {
-                    println!("{line}");
+                let line = if raw {
+                    Some(e.to_string())
+                } else {
+                    describe_event(&e)
+                };
+                if let Some(line) = line
+                    && !emit(&line)
+                {
+                    return Ok(ExitCode::SUCCESS);
                 }
             }
             Ok(None) => {}
@@ -409,10 +441,13 @@ fn track(
         else {
             continue;
         };
-        if raw {
-            println!("{e}");
-        } else if let Some(line) = describe_event(&e) {
-            println!("{line}");
+        let line = if raw {
+            Some(e.to_string())
+        } else {
+            describe_event(&e)
+        };
+        if let Some(line) = line {
+            emit(&line);
         }
         match e["event"].as_str() {
             Some("trial") if e["phase"] == "ended" => {

@@ -166,8 +166,9 @@ impl Default for ControlStatus {
             velocity_rad_s: [0.0; JOINTS],
             torque_nm: [0.0; JOINTS],
             setpoint_rad: [0.0; JOINTS],
-            sensor: SurfacePoint::default(),
-            setpoint: SurfacePoint::default(),
+            sensor: SurfacePoint::new(f64::NAN, f64::NAN),
+            // No setpoint until the arm is first enabled.
+            setpoint: SurfacePoint::new(f64::NAN, f64::NAN),
             depth_m: f64::NAN,
             settled: true,
             motion_seq: 0,
