@@ -4,6 +4,7 @@ mod check_config;
 pub mod console;
 mod demo;
 mod fem;
+mod recover;
 mod sim;
 
 use std::process::ExitCode;
@@ -32,6 +33,8 @@ enum Command {
     Console(console::Verb),
     /// Run the tissue FEM: the seed papers' studies or one model file.
     Fem(fem::Args),
+    /// Rewrite trial recordings cut short (kill -9, crash) as complete MCAP files.
+    Recover(recover::Args),
     /// Run whole trials on the simulated bench in lockstep and report the tracking error.
     Sim(sim::Args),
 }
@@ -43,6 +46,7 @@ pub fn run() -> ExitCode {
         Command::Demo(args) => demo::run(&args),
         Command::Console(verb) => console::run(&verb),
         Command::Fem(args) => fem::run(&args),
+        Command::Recover(args) => recover::run(&args),
         Command::Sim(args) => sim::run(&args),
     }
 }

@@ -1035,7 +1035,6 @@ impl Supervisor {
     fn status_json(&self) -> Value {
         report::status_json(
             self.links.status.read().unwrap_or_default(),
-            self.state,
             self.fault.as_ref(),
             &self.info,
             self.trial.as_ref(),

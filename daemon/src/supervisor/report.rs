@@ -61,7 +61,6 @@ pub fn state_beat(s: &ControlStatus, state: OpState, trial: Option<&Trial>) -> V
 #[allow(clippy::too_many_arguments)]
 pub fn status_json(
     s: ControlStatus,
-    state: OpState,
     fault: Option<&(Fault, Option<PathBuf>)>,
     info: &BackendInfo,
     trial: Option<&Trial>,
@@ -113,6 +112,5 @@ pub fn status_json(
             "dropped": s.dropped,
             "period": timing,
         },
-        "state_detail": state.as_str(),
     })
 }
