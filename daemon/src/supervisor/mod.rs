@@ -208,12 +208,16 @@ impl Supervisor {
     /// Run until a shutdown completes or the inputs close.
     pub fn run(mut self) {
         let ticker = tick(Duration::from_millis(50));
+        let mut inputs = self.links.inputs.clone();
         loop {
             select! {
-                recv(self.links.inputs) -> m => match m {
+                recv(inputs) -> m => match m {
                     Ok(SupervisorInput::Request { id, verb, reply }) => self.on_request(id, verb, reply),
                     Ok(SupervisorInput::Shutdown { done }) => self.begin_shutdown(done),
                     Err(_) => {
+                        // Every sender is gone (the daemon was dropped): stop as on SIGTERM,
+                        // and stop listening to the closed channel.
+                        inputs = crossbeam_channel::never();
                         let (tx, _rx) = crossbeam_channel::bounded(1);
                         self.begin_shutdown(tx);
                     }
