@@ -37,6 +37,9 @@ pub struct Args {
 
 const T: Duration = Duration::from_secs(30);
 
+/// Marks tried at one placement before giving up.
+const MARK_ATTEMPTS: usize = 3;
+
 pub fn run(args: &Args) -> ExitCode {
     match run_inner(args) {
         Ok(true) => ExitCode::SUCCESS,
@@ -171,12 +174,29 @@ fn drive(
         c.call("move", json!({"x_m": x, "z_m": z}), T)
             .map_err(|e| e.to_string())?;
         wait_state(&mut c, "holding")?;
-        println!("placement {}: marking (acquiring the pulse here)", i + 1);
-        c.call("mark", json!({}), T).map_err(|e| e.to_string())?;
-        let found = wait_mark(&mut c)?;
+        // A surgeon who feels nothing marks again; so does the simulator's lockstep runner.
+        let mut found = false;
+        for attempt in 1..=MARK_ATTEMPTS {
+            let again = if attempt > 1 {
+                format!(", attempt {attempt}")
+            } else {
+                String::new()
+            };
+            println!(
+                "placement {}: marking (acquiring the pulse here){again}",
+                i + 1
+            );
+            c.call("mark", json!({}), T).map_err(|e| e.to_string())?;
+            found = wait_mark(&mut c)?;
+            if found {
+                break;
+            }
+            println!("  no pulse found");
+            wait_state(&mut c, "holding")?;
+        }
         if !found {
             println!(
-                "no pulse found at placement {}: the trial cannot be seeded",
+                "no pulse found at placement {} in {MARK_ATTEMPTS} marks: the trial cannot be seeded",
                 i + 1
             );
             return Ok(false);
