@@ -53,10 +53,11 @@ fn lab_config(dir: &Path, tactile: &Path, joints_adapter: &str) -> PathBuf {
         &format!("dir: {:?},", dir.join("trials").display().to_string()),
     );
     // This is no RT machine: the test shares two cores with compilers and other daemons,
-    // which stall every process here for up to a quarter of a second (263 ms seen while
-    // the whole test suite ran), and the ptys deliver the amplifiers' 1 kHz feedback in
-    // bursts. Half a second before data counts as stale (the rig: 5 ms joint feedback,
-    // 10 ms joints, 100 ms tactile).
+    // which stall every process here (0.26 s and 1.45 s seen in the loop's period
+    // statistics while the whole test suite ran), and the ptys deliver the amplifiers'
+    // 1 kHz feedback in bursts. Half a second before data counts as stale (the rig: 5 ms
+    // joint feedback, 10 ms joints, 100 ms tactile); a longer stall faults the session,
+    // which then runs again (see `Stalled`).
     text = replace(
         text,
         "feedback_timeout_s: 0.005,",
