@@ -52,14 +52,13 @@ fn lab_config(dir: &Path, tactile: &Path, joints_adapter: &str) -> PathBuf {
         "dir: \"/var/lib/pulsetrack/trials\",",
         &format!("dir: {:?},", dir.join("trials").display().to_string()),
     );
-    // This is no RT machine: the test shares two cores with compilers and other daemons,
-    // which stall every process here (0.26 s and 1.45 s seen in the loop's period
-    // statistics while the whole test suite ran), and the ptys deliver the amplifiers'
-    // 1 kHz feedback in bursts. A second before data counts as stale (the rig: 5 ms joint
-    // feedback, 10 ms joints, 100 ms tactile) or consecutive missed deadlines fault the
-    // loop (the rig: 20), and 3 cm between setpoint and sensor (the rig: 1 cm; a stalled
-    // loop wakes to a setpoint that moved on); a longer stall faults the session, which
-    // then runs again (see `Stalled`).
+    // This is no RT machine: the test shares two cores with compilers and other daemons, which
+    // stall every process here (1.45 s seen in the loop's period statistics and a tactile stream
+    // 4.3 s old while the whole test suite ran), and the ptys deliver the amplifiers' 1 kHz
+    // feedback in bursts. A second before data counts as stale (the rig: 5 ms joint feedback, 10
+    // ms joints, 100 ms tactile), a thousand consecutive missed deadlines fault the loop (the rig:
+    // 20), and 3 cm between setpoint and sensor (the rig: 1 cm; a stalled loop wakes to a setpoint
+    // that moved on); a longer stall faults the session, which then runs again (see `Stalled`).
     text = replace(
         text,
         "feedback_timeout_s: 0.005,",
