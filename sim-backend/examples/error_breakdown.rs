@@ -61,6 +61,10 @@ fn main() -> Result<(), String> {
             t.backtracks,
             t.end_reason
         );
+        // The misses and backtracks, with where the sensor truly was against the artery.
+        for line in t.log.iter().filter(|l| l.contains("Missed") || l.contains("Backtracking")) {
+            println!("    {}", line.split("  {").next().unwrap_or(line));
+        }
         let mut previous: Option<(f64, f64)> = None;
         for p in &t.located {
             let here = (p.true_x_m, p.true_z_m);
