@@ -27,9 +27,9 @@ fn main() -> Result<(), String> {
     for _ in 0..10_000 {
         bench.step();
         let f = bench.clean_forces();
-        for i in 0..10 {
-            lo[i] = lo[i].min(f[i]);
-            hi[i] = hi[i].max(f[i]);
+        for ((l, h), v) in lo.iter_mut().zip(hi.iter_mut()).zip(f) {
+            *l = l.min(v);
+            *h = h.max(v);
         }
     }
     println!(
@@ -38,8 +38,8 @@ fn main() -> Result<(), String> {
         at.x_m * 1e3,
         at.z_m * 1e3
     );
-    for i in 0..10 {
-        print!("{:>6.1}", (hi[i] - lo[i]) * 1e3);
+    for (l, h) in lo.iter().zip(&hi) {
+        print!("{:>6.1}", (h - l) * 1e3);
     }
     println!();
     Ok(())

@@ -62,7 +62,11 @@ fn main() -> Result<(), String> {
             t.end_reason
         );
         // The misses and backtracks, with where the sensor truly was against the artery.
-        for line in t.log.iter().filter(|l| l.contains("Missed") || l.contains("Backtracking")) {
+        for line in t
+            .log
+            .iter()
+            .filter(|l| l.contains("Missed") || l.contains("Backtracking"))
+        {
             println!("    {}", line.split("  {").next().unwrap_or(line));
         }
         let mut previous: Option<(f64, f64)> = None;

@@ -525,8 +525,8 @@ impl DynamicArm {
             if let Some(h) = &self.incision
                 && compliance > 0.0
             {
-                for i in 0..2 {
-                    loads[i] -= lever * h.force_n[i] / (h.stiffness_n_per_m * compliance);
+                for (load, force) in loads.iter_mut().zip(h.force_n) {
+                    *load -= lever * force / (h.stiffness_n_per_m * compliance);
                 }
             }
             let sol = self.contact.solve(

@@ -142,6 +142,31 @@ mod tests {
     }
 
     #[test]
+    fn no_element_feels_more_than_the_lumen_pressure_times_its_area() {
+        // The bound behind docs/calibration.md's radial-wrist result: however thin the cover
+        // and wherever the artery crosses, the force per pascal on a 2 x 2 mm element stays
+        // under its 4 mm², and reaches it only as the cover vanishes over a wide strip.
+        let area = 4e-6;
+        for r in [0.0011, 0.0016, 0.0019] {
+            let b = half_width_m(r);
+            for t in [1e-7, 1e-4, 0.0008, 0.0018, 0.0031, 0.006] {
+                for u0 in [0.0, 0.0005, 0.001, 0.002, 0.004] {
+                    for deg in [90.0f64, 60.0, 30.0] {
+                        let phi = deg.to_radians();
+                        let k = rectangle_integral(u0, phi.sin(), phi.cos(), 0.001, 0.001, b, t);
+                        assert!(
+                            k >= 0.0 && k <= area * (1.0 + 1e-9),
+                            "{r} {t} {u0} {deg}: {k}"
+                        );
+                    }
+                }
+            }
+        }
+        let thin = rectangle_integral(0.0, 1.0, 0.0, 0.001, 0.001, half_width_m(0.0016), 1e-7);
+        assert!((thin - area).abs() < 1e-3 * area, "{thin}");
+    }
+
+    #[test]
     fn rectangle_integral_matches_brute_force_at_any_crossing_angle() {
         let (b, t) = (0.0025, 0.0018);
         let brute = |u0: f64, ga: f64, gb: f64| {
