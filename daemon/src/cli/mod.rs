@@ -6,6 +6,7 @@ mod demo;
 mod fem;
 mod recover;
 mod sim;
+mod stdout;
 
 use std::process::ExitCode;
 
