@@ -1,5 +1,6 @@
 //! The `pulsetrack` command line: one module per subcommand.
 
+mod bench;
 mod check_config;
 mod sim;
 
@@ -24,6 +25,8 @@ enum Command {
     CheckConfig(check_config::Args),
     /// Run whole trials on the simulated bench in lockstep and report the tracking error.
     Sim(sim::Args),
+    /// Monte Carlo of trials over scenes and trackers on every core: speed against error.
+    Bench(bench::Args),
 }
 
 pub fn run() -> ExitCode {
@@ -31,5 +34,6 @@ pub fn run() -> ExitCode {
     match cli.command {
         Command::CheckConfig(args) => check_config::run(&args),
         Command::Sim(args) => sim::run(&args),
+        Command::Bench(args) => bench::run(&args),
     }
 }
