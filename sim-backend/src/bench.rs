@@ -19,7 +19,7 @@ use crate::physics::joints::{Encoders, JointDynamics};
 use crate::physics::rod::{GRAVITY_M_S2, Rod};
 use crate::physics::tactile::{Contact, TactileModel};
 use crate::random::{Stream, standard_normal, stream, stream_seed, uniform_open};
-use crate::scene::{ArteryPath, PulseSource, RobotSpec, Scene};
+use crate::scene::{ArteryPath, PressureKernel, PulseSource, RobotSpec, Scene};
 
 /// Where the sensor truly is and what it presses on, at one instant.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -114,13 +114,23 @@ impl Bench {
         };
         let path =
             ArteryPath::from_spec(&scene.artery.path).map_err(|e| scene_err(e.to_string()))?;
-        let tactile = TactileModel::new(
+        let mut tactile = TactileModel::new(
             path,
             &scene.artery,
             &scene.sensor,
             &scene.lumps,
             config.sensor.direction,
         );
+        if let PressureKernel::Fem(spec) = &scene.artery.kernel {
+            let a = &scene.artery;
+            let params = spec.params(a.inner_radius_m, a.wall_m, a.depth_m);
+            let (kernel, _) = crate::fem::kernel::load_or_compute(
+                &params,
+                &crate::fem::kernel::default_cache_dir(),
+            )
+            .map_err(|e| scene_err(format!("FEM kernel: {e}")))?;
+            tactile = tactile.with_fem_kernel(std::sync::Arc::new(kernel));
+        }
         let rate = config.control.rate_hz;
         let frame_rate = config.sensor.sample_rate_hz;
         if !(rate.is_finite() && rate > 0.0 && frame_rate.is_finite() && frame_rate > 0.0) {

@@ -6,10 +6,13 @@
 //! - [`physics`]: the surface pressure kernel and tactile model, tissue contact and friction,
 //!   the rod through a compliant pivot, the Phantom's joint dynamics and encoders;
 //! - [`rig`]: the simulated bench behind control's ports, for the daemon;
-//! - [`runner`]: the lockstep runner behind `pulsetrack sim` and the benchmarks.
+//! - [`runner`]: the lockstep runner behind `pulsetrack sim` and the benchmarks;
+//! - [`fem`]: the 2-D tissue FEM of the seed papers, and the FEM pressure kernel a scene may
+//!   use instead of the analytic one.
 
 pub mod bench;
 pub mod error;
+pub mod fem;
 pub mod physics;
 pub mod random;
 pub mod rig;

@@ -28,6 +28,8 @@ pub struct TactileModel {
     /// +1: element 0 at the most negative `z`, and the body's distal end beyond it.
     direction: f64,
     cache: Option<Cached>,
+    /// The FEM kernel, when the scene chose it (`None`: analytic).
+    fem: Option<std::sync::Arc<crate::fem::kernel::Kernel>>,
 }
 
 /// The per-element shape factors at one sensor pose.
@@ -68,7 +70,16 @@ impl TactileModel {
             lumps: lumps.to_vec(),
             direction: if direction < 0.0 { -1.0 } else { 1.0 },
             cache: None,
+            fem: None,
         }
+    }
+
+    /// Use an FEM kernel (computed for this artery's depth, radius and wall) instead of the
+    /// analytic one.
+    pub fn with_fem_kernel(mut self, kernel: std::sync::Arc<crate::fem::kernel::Kernel>) -> Self {
+        self.fem = Some(kernel);
+        self.cache = None;
+        self
     }
 
     pub fn path(&self) -> &ArteryPath {
@@ -119,6 +130,9 @@ impl TactileModel {
         // The tube's unit normal in (x, z): moving along x (z) changes the distance by its
         // x (z) component.
         let (gx, gz) = (-near.heading_rad.sin(), near.heading_rad.cos());
+        if let Some(k) = &self.fem {
+            return k.rectangle_integral(near.offset_m, gx, gz, half_x, half_z);
+        }
         strength_n(1.0, a) * rectangle_integral(near.offset_m, gx, gz, half_x, half_z, h)
     }
 
@@ -219,6 +233,7 @@ mod tests {
             inner_radius_m: 0.0015,
             inner_radius_end_m: None,
             wall_m: 0.001,
+            kernel: Default::default(),
         };
         TactileModel::new(
             ArteryPath::from_spec(&path).unwrap(),

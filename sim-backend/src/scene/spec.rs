@@ -75,6 +75,21 @@ pub struct ArterySpec {
     /// Wall thickness, m (sets the outer radius; the lumen pressure is taken as transmitted
     /// through the wall, see docs/calibration.md).
     pub wall_m: f64,
+    /// Which surface pressure kernel the tactile model uses (default: the analytic one).
+    #[serde(default)]
+    pub kernel: PressureKernel,
+}
+
+/// The surface pressure kernel of the tube.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub enum PressureKernel {
+    /// DESIGN.md section 5: 2 Δp a² (h² - u²)/(u² + h²)², wall-less and modulus-free.
+    #[default]
+    Analytic,
+    /// From the 2-D FEM (`crate::fem::kernel`) for the artery's depth, radius and wall and
+    /// these moduli, cached on disk (`$PULSETRACK_FEM_CACHE` or the temporary directory).
+    /// Needs a constant depth and radius along the path.
+    Fem(crate::fem::kernel::FemKernelSpec),
 }
 
 /// The tissue (or foam) the sensor slides on.

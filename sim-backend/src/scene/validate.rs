@@ -110,6 +110,28 @@ impl Validate for ArterySpec {
                 "depth_end_m",
             ),
         ];
+        if let PressureKernel::Fem(spec) = &self.kernel {
+            v.check(
+                self.depth_end_m.is_none() && self.inner_radius_end_m.is_none(),
+                "kernel",
+                "the FEM kernel needs a constant depth and radius (no depth_end_m, inner_radius_end_m)",
+            );
+            v.check(
+                spec.tissue.is_valid() && spec.wall.is_valid(),
+                "kernel.Fem",
+                "moduli must be positive and Poisson's ratios in (-1, 0.5)",
+            );
+            v.check(spec.refine <= 3, "kernel.Fem.refine", "must be at most 3");
+            let r_out = self.inner_radius_m + self.wall_m;
+            v.check(
+                self.depth_m >= 1.2 * r_out,
+                "kernel",
+                format!(
+                    "the FEM kernel needs the tube's centre at least 1.2 outer radii deep ({:.2} mm)",
+                    1.2 * r_out * 1e3
+                ),
+            );
+        }
         for (depth, radius, field) in ends {
             if depth.is_finite() && radius.is_finite() && self.wall_m.is_finite() {
                 v.check(

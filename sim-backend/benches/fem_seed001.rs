@@ -1,0 +1,166 @@
+//! Benchmark (not a test): the seed-001 healthy artery, linear, at several refinement levels.
+//! Times each phase (mesh, pattern, element matrices + assembly, symbolic and numeric
+//! Cholesky, the two load-case solves, recovery) and prints medians over repetitions, with the
+//! peak top von Mises at t = 0.425 s for the convergence table.
+//!
+//! cargo bench -p pulsetrack-sim --bench fem_seed001 -- [--refine 0,1,2,3] [--reps 5]
+//!     [--size-scale S] [--export DIR]   (DIR/k.mtx and DIR/f.txt for scripts/fem_superlu.py,
+//!     finest level)
+
+use std::io::Write;
+use std::time::Instant;
+
+use pulsetrack_sim::fem::linear::LinearModel;
+use pulsetrack_sim::fem::recovery::von_mises_of;
+use pulsetrack_sim::fem::run::{build_mesh, supports};
+use pulsetrack_sim::fem::study::shipped;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let get = |flag: &str| {
+        args.iter()
+            .position(|a| a == flag)
+            .and_then(|i| args.get(i + 1))
+            .cloned()
+    };
+    let levels: Vec<u32> = get("--refine")
+        .unwrap_or_else(|| "0,1,2,3".into())
+        .split(',')
+        .filter_map(|s| s.trim().parse().ok())
+        .collect();
+    let reps: usize = get("--reps").and_then(|s| s.parse().ok()).unwrap_or(5);
+    let export = get("--export");
+    let mut model = shipped("seed-001-healthy-artery.ron").expect("shipped model");
+    // Scale the element sizes (0.84 at refine 3 gives about 340k DOFs).
+    if let Some(s) = get("--size-scale").and_then(|s| s.parse::<f64>().ok()) {
+        model.mesh.near_size_m *= s;
+        model.mesh.far_size_m *= s;
+    }
+    let p_sys = model.pressure_at(0.425);
+    println!(
+        "{:>6} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10}",
+        "refine",
+        "dofs",
+        "mesh s",
+        "pattern",
+        "assembly",
+        "symbolic",
+        "numeric",
+        "solve",
+        "recover",
+        "total s",
+        "peak kPa"
+    );
+    for &level in &levels {
+        let mut rows: Vec<[f64; 8]> = Vec::new();
+        let mut peak = f64::NAN;
+        let mut dofs = 0;
+        for _ in 0..reps {
+            let t0 = Instant::now();
+            let mesh = build_mesh(&model, level).expect("mesh");
+            let t_mesh = t0.elapsed().as_secs_f64();
+            let lm = LinearModel::new(&mesh, &model.materials(), model.analysis).expect("assemble");
+            let (fixed, pres) = supports(&mesh, &model);
+            let t1 = Instant::now();
+            let c = lm.factor(&fixed).expect("factor");
+            let t_num = t1.elapsed().as_secs_f64();
+            let t2 = Instant::now();
+            let zeros = vec![0.0; mesh.dofs()];
+            let u_platen = c.solve(&zeros, &pres).expect("solve");
+            let u_unit = c
+                .solve(&mesh.lumen_pressure_forces(1.0), &zeros)
+                .expect("solve");
+            let t_solve = t2.elapsed().as_secs_f64();
+            let t3 = Instant::now();
+            let u: Vec<f64> = u_platen
+                .iter()
+                .zip(&u_unit)
+                .map(|(a, b)| a + p_sys * b)
+                .collect();
+            let vm = von_mises_of(&lm.top_stresses(&u));
+            let t_rec = t3.elapsed().as_secs_f64();
+            peak = vm.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            dofs = mesh.dofs();
+            let t = lm.timings;
+            let total = t0.elapsed().as_secs_f64();
+            rows.push([
+                t_mesh,
+                t.pattern_s,
+                t.assembly_s,
+                t.symbolic_s,
+                t_num,
+                t_solve,
+                t_rec,
+                total,
+            ]);
+            if let Some(dir) = &export
+                && Some(&level) == levels.last()
+                && rows.len() == 1
+            {
+                export_system(dir, &lm, &fixed, &pres);
+            }
+        }
+        let col = |i: usize| median(rows.iter().map(|r| r[i]).collect());
+        println!(
+            "{:>6} {:>9} {:>8.3} {:>8.3} {:>9.3} {:>9.3} {:>9.3} {:>8.3} {:>8.3} {:>9.3} {:>10.4}",
+            level,
+            dofs,
+            col(0),
+            col(1),
+            col(2),
+            col(3),
+            col(4),
+            col(5),
+            col(6),
+            col(7),
+            peak * 1e-3
+        );
+    }
+}
+
+/// Write the constrained system (free DOFs only, lower triangle, Matrix Market symmetric) and
+/// the platen load case's right-hand side.
+fn export_system(dir: &str, lm: &LinearModel<'_>, fixed: &[bool], pres: &[f64]) {
+    let p = &lm.pattern;
+    let mut index = vec![usize::MAX; p.n];
+    let mut n_free = 0;
+    for i in 0..p.n {
+        if !fixed[i] {
+            index[i] = n_free;
+            n_free += 1;
+        }
+    }
+    let mut rhs = vec![0.0; n_free];
+    let mut entries = Vec::new();
+    for col in 0..p.n {
+        for k in p.col_ptr[col]..p.col_ptr[col + 1] {
+            let row = p.row_idx[k];
+            let v = lm.values[k];
+            match (fixed[row], fixed[col]) {
+                (false, false) => entries.push((index[row], index[col], v)),
+                (false, true) => rhs[index[row]] -= v * pres[col],
+                (true, false) => rhs[index[col]] -= v * pres[row],
+                _ => {}
+            }
+        }
+    }
+    std::fs::create_dir_all(dir).expect("export dir");
+    let mut f =
+        std::io::BufWriter::new(std::fs::File::create(format!("{dir}/k.mtx")).expect("k.mtx"));
+    writeln!(f, "%%MatrixMarket matrix coordinate real symmetric").expect("write");
+    writeln!(f, "{n_free} {n_free} {}", entries.len()).expect("write");
+    for (r, c, v) in entries {
+        writeln!(f, "{} {} {:.17e}", r + 1, c + 1, v).expect("write");
+    }
+    let mut g =
+        std::io::BufWriter::new(std::fs::File::create(format!("{dir}/f.txt")).expect("f.txt"));
+    for v in rhs {
+        writeln!(g, "{v:.17e}").expect("write");
+    }
+    eprintln!("exported {n_free} free DOFs to {dir}");
+}

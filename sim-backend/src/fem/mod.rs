@@ -1,0 +1,27 @@
+//! A 2-D finite-element model of soft tissue with tumours and arteries.
+//!
+//! It reproduces the two seed FEM papers (`seeds/001`, `seeds/002`; DESIGN.md section 8):
+//! plane stress or plane strain, 4-node bilinear quads with a mean-dilatation (B-bar)
+//! treatment against locking, a mesher for a rectangle with a circular feature of concentric
+//! layers, prescribed displacements, lumen pressure, a rigid indenter in frictionless contact,
+//! an optional finite-strain neo-Hookean solve, and von Mises recovered at the top-edge nodes.
+//! It also produces the surface pressure kernel the simulator can use instead of the analytic
+//! one. See docs/fem.md.
+
+#![allow(clippy::needless_range_loop)] // index loops read like the formulas
+
+pub mod contact;
+pub mod element;
+pub mod finite;
+pub mod kernel;
+pub mod linear;
+pub mod material;
+pub mod mesh;
+pub mod mesher;
+pub mod model;
+pub mod recovery;
+pub mod run;
+pub mod scene_validation;
+pub mod sparse;
+pub mod study;
+pub mod tactile;

@@ -1,0 +1,232 @@
+//! Run one model: mesh it, apply supports and loads, solve at each output time and recover
+//! the top-edge stresses.
+//!
+//! Supports (both papers): the bottom is held in y, one bottom node below the feature is held
+//! in x (removing the rigid drift; by symmetry it carries no load). The kernel's model leaves
+//! the bottom free and anchors a top node instead.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::contact::{Indenter, solve_contact};
+use super::finite;
+use super::linear::{LinearModel, Timings};
+use super::material::von_mises;
+use super::mesh::Mesh;
+use super::mesher::{MeshError, mesh_block};
+use super::model::{Bottom, Kinematics, Load, ModelFile};
+use super::recovery::{CurveSummary, summarize};
+use super::sparse::SolveError;
+
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum FemError {
+    #[error("model {model}: mesh: {source}")]
+    Mesh { model: String, source: MeshError },
+    #[error("model {model}: solve: {source}")]
+    Solve { model: String, source: SolveError },
+}
+
+/// The top edge at one time.
+#[derive(Debug, Clone)]
+pub struct TimeResult {
+    pub t_s: f64,
+    pub lumen_pa: f64,
+    /// Top-node positions relative to the model's lateral origin, m (reference positions).
+    pub x_m: Vec<f64>,
+    pub von_mises_pa: Vec<f64>,
+    /// σyy at the top nodes (negative in compression), Pa.
+    pub sigma_yy_pa: Vec<f64>,
+    pub summary: CurveSummary,
+}
+
+#[derive(Debug, Clone)]
+pub struct ModelRun {
+    pub name: String,
+    pub dofs: usize,
+    pub wall_s: f64,
+    pub timings: Timings,
+    pub times: Vec<TimeResult>,
+}
+
+/// One record of `pulsetrack fem --json` (field names are an interface).
+#[derive(Debug, Clone, Serialize)]
+pub struct Record {
+    pub model: String,
+    pub t_s: f64,
+    pub x_m: Vec<f64>,
+    pub von_mises_pa: Vec<f64>,
+    pub peak_pa: f64,
+    pub x_peak_m: f64,
+    pub von_mises_x0_pa: f64,
+    pub dofs: usize,
+    pub wall_s: f64,
+}
+
+impl ModelRun {
+    pub fn records(&self) -> Vec<Record> {
+        self.times
+            .iter()
+            .map(|t| Record {
+                model: self.name.clone(),
+                t_s: t.t_s,
+                x_m: t.x_m.clone(),
+                von_mises_pa: t.von_mises_pa.clone(),
+                peak_pa: t.summary.peak,
+                x_peak_m: t.summary.x_peak,
+                von_mises_x0_pa: t.summary.at_x0,
+                dofs: self.dofs,
+                wall_s: self.wall_s,
+            })
+            .collect()
+    }
+}
+
+/// Bottom supports and the platen (if any) as (fixed, prescribed) per DOF.
+pub fn supports(mesh: &Mesh, model: &ModelFile) -> (Vec<bool>, Vec<f64>) {
+    let mut fixed = vec![false; mesh.dofs()];
+    let mut pres = vec![0.0; mesh.dofs()];
+    let held = model.bottom == Bottom::Held;
+    if held {
+        for &n in &mesh.bottom {
+            fixed[2 * n as usize + 1] = true;
+        }
+    }
+    // One node in x against rigid drift: below the feature, or above it if the bottom is free.
+    let x0 = model.x_origin_m();
+    let row = if held { &mesh.bottom } else { &mesh.top };
+    if let Some(&anchor) = row.iter().min_by(|&&a, &&b| {
+        let da = (mesh.nodes[a as usize][0] - x0).abs();
+        let db = (mesh.nodes[b as usize][0] - x0).abs();
+        da.total_cmp(&db)
+    }) {
+        fixed[2 * anchor as usize] = true;
+    }
+    if let Load::Platen { indent_m } = model.load {
+        for &n in &mesh.top {
+            fixed[2 * n as usize + 1] = true;
+            pres[2 * n as usize + 1] = -indent_m;
+        }
+    }
+    (fixed, pres)
+}
+
+pub fn build_mesh(model: &ModelFile, extra_refine: u32) -> Result<Mesh, FemError> {
+    let feature = model.feature();
+    mesh_block(
+        model.block.width_m,
+        model.block.height_m,
+        feature.as_ref(),
+        &model.mesh.density(extra_refine),
+    )
+    .map_err(|source| FemError::Mesh {
+        model: model.name.clone(),
+        source,
+    })
+}
+
+fn time_result(model: &ModelFile, mesh: &Mesh, t_s: f64, stresses: &[[f64; 4]]) -> TimeResult {
+    let x0 = model.x_origin_m();
+    let x_m: Vec<f64> = mesh
+        .top
+        .iter()
+        .map(|&n| mesh.nodes[n as usize][0] - x0)
+        .collect();
+    let von_mises_pa: Vec<f64> = stresses
+        .iter()
+        .map(|s| von_mises(s[0], s[1], s[2], s[3]))
+        .collect();
+    let sigma_yy_pa = stresses.iter().map(|s| s[1]).collect();
+    let summary = summarize(&x_m, &von_mises_pa, 0.0);
+    TimeResult {
+        t_s,
+        lumen_pa: model.pressure_at(t_s),
+        x_m,
+        von_mises_pa,
+        sigma_yy_pa,
+        summary,
+    }
+}
+
+/// Run `model` with `extra_refine` more refinement levels than its file asks for.
+pub fn run_model(model: &ModelFile, extra_refine: u32) -> Result<ModelRun, FemError> {
+    let start = Instant::now();
+    let mesh = build_mesh(model, extra_refine)?;
+    let wrap = |source: SolveError| FemError::Solve {
+        model: model.name.clone(),
+        source,
+    };
+    let (times, timings) = match model.kinematics {
+        Kinematics::Linear => solve_linear(model, &mesh).map_err(wrap)?,
+        Kinematics::FiniteStrain { steps } => (
+            finite::solve_times(model, &mesh, steps)
+                .map_err(wrap)?
+                .into_iter()
+                .map(|(t, s)| time_result(model, &mesh, t, &s))
+                .collect(),
+            Timings::default(),
+        ),
+    };
+    Ok(ModelRun {
+        name: model.name.clone(),
+        dofs: mesh.dofs(),
+        wall_s: start.elapsed().as_secs_f64(),
+        timings,
+        times,
+    })
+}
+
+fn solve_linear(model: &ModelFile, mesh: &Mesh) -> Result<(Vec<TimeResult>, Timings), SolveError> {
+    let lm = LinearModel::new(mesh, &model.materials(), model.analysis)?;
+    let (fixed, pres) = supports(mesh, model);
+    let unit = mesh.lumen_pressure_forces(1.0);
+    let zeros = vec![0.0; mesh.dofs()];
+    let mut out = Vec::with_capacity(model.times_s.len());
+    match model.load {
+        Load::Platen { .. } => {
+            // Linear and the supports do not change: superpose the platen and a unit lumen
+            // pressure, solved with one factorization.
+            let c = lm.factor(&fixed)?;
+            let u_platen = c.solve(&zeros, &pres)?;
+            let u_unit = c.solve(&unit, &zeros)?;
+            let s_platen = lm.top_stresses(&u_platen);
+            let s_unit = lm.top_stresses(&u_unit);
+            for &t in &model.times_s {
+                let p = model.pressure_at(t);
+                let s: Vec<[f64; 4]> = s_platen
+                    .iter()
+                    .zip(&s_unit)
+                    .map(|(a, b)| {
+                        [
+                            a[0] + p * b[0],
+                            a[1] + p * b[1],
+                            a[2] + p * b[2],
+                            a[3] + p * b[3],
+                        ]
+                    })
+                    .collect();
+                out.push(time_result(model, mesh, t, &s));
+            }
+        }
+        Load::Finger {
+            tip,
+            indent_m,
+            centre_x_m,
+        } => {
+            let indenter = Indenter {
+                tip,
+                centre_x_m: centre_x_m.unwrap_or_else(|| model.x_origin_m()),
+                indent_m,
+                surface_y_m: model.block.height_m,
+            };
+            for &t in &model.times_s {
+                let p = model.pressure_at(t);
+                let force: Vec<f64> = unit.iter().map(|f| f * p).collect();
+                let sol = solve_contact(&lm, &fixed, &pres, &force, &indenter)?;
+                let s = lm.top_stresses(&sol.u);
+                out.push(time_result(model, mesh, t, &s));
+            }
+        }
+    }
+    Ok((out, lm.timings))
+}
