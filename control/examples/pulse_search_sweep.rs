@@ -18,7 +18,7 @@ use control::signal::noise_level::NoiseLevel;
 use control::signal::pulse_search::{PulseSearch, PulseSearchSettings, SearchMiss};
 use synth::{AcquisitionSpec, Rng, Waveform, acquisition};
 
-const WINDOWS_S: &[f64] = &[3.0, 4.0, 8.0, 16.0];
+const WINDOWS_S: &[f64] = &[3.0, 4.0, 8.0, 16.0, 32.0];
 const SWINGS_N: &[f64] = &[0.003, 0.006, 0.009, 0.012, 0.018, 0.024, 0.036];
 
 fn main() {
@@ -33,9 +33,13 @@ fn main() {
         threshold: f64::INFINITY,
         decimation: 4,
         min_cycles: 2.5,
+        coherent_s: std::env::var("COHERENT")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(12.0),
     };
-    let mut search = PulseSearch::new(2000);
-    let mut noise = NoiseLevel::new(2000);
+    let mut search = PulseSearch::new(4000);
+    let mut noise = NoiseLevel::new(4000);
 
     println!("## Null distribution of the statistic (noise only, {trials} windows each)\n");
     println!("| window s | median | p90 | p99 | p99.9 | max |");
@@ -76,7 +80,7 @@ fn main() {
     let threshold = std::env::var("THRESHOLD")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(60.0);
+        .unwrap_or(8.0);
     let settings = PulseSearchSettings {
         threshold,
         ..settings

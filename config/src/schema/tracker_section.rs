@@ -152,9 +152,10 @@ impl Validate for control::tracker::beatslide::BeatSlideParams {
             "max_period_s",
             "must exceed min_period_s",
         );
-        // Noise alone reaches about 60 (docs/tracker-beatslide.md): lower is a false alarm
+        // Noise alone reaches about 6 (docs/tracker-beatslide.md): lower is a false alarm
         // every few windows.
-        v.in_range("detection_threshold", self.detection_threshold, 40.0, 1.0e6);
+        v.in_range("detection_threshold", self.detection_threshold, 4.0, 1.0e4);
+        v.in_range("coherent_s", self.coherent_s, 1.0, MAX_WINDOW_S);
         v.in_range("mark_window_s", self.mark_window_s, 1.0, MAX_WINDOW_S);
         v.in_range("mark_extend_s", self.mark_extend_s, 0.1, MAX_WINDOW_S);
         v.in_range(

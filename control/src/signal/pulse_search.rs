@@ -2,15 +2,18 @@
 //! the strongest common periodic waveform across the ten elements.
 //!
 //! At each trial period the window is fitted by [`HarmonicFit`] (with a quadratic trend: the
-//! creep after a move is curved). Under noise alone each
-//! element's harmonic coefficients, whitened by the information matrix, are independent
-//! `N(0, σ²)`; a pulse adds the same waveform to every element, scaled by the spatial
-//! kernel: a rank-one pattern. The statistic is the largest eigenvalue of the whitened
-//! coefficients' scatter matrix over `σ²` (all elements pooled, signs and all: the
-//! out-of-phase elements add to it), maximized over the period. A static lump or a drift
-//! is not periodic and does not raise it: this is the pulsatility test. The threshold is
-//! set on noise-only windows (docs/tracker-beatslide.md gives the measured false-alarm
-//! rates).
+//! creep after a move is curved). Under noise alone each element's harmonic coefficients,
+//! whitened by the information matrix, are independent `N(0, σ²)`; a pulse adds the same
+//! waveform to every element, scaled by the spatial kernel: a rank-one pattern, `k qᵀ`. A
+//! heart does not keep its phase for long (beat-to-beat intervals vary by a few per cent),
+//! so a long window is cut into sub-windows of about `coherent_s`, each fitted with its own
+//! phase; what they share is the spatial pattern `k`. The statistic is the largest
+//! eigenvalue of the elements' 10 × 10 scatter of whitened coefficients summed over the
+//! sub-windows, over `σ²` (all elements pooled, signs and all: the out-of-phase elements add
+//! to it), centred and scaled by its noise-only (Tracy–Widom) law so that one threshold
+//! serves every window length, and maximized over the period. A static lump or a drift is
+//! not periodic and does not raise it: this is the pulsatility test. The threshold is set
+//! on noise-only windows (docs/tracker-beatslide.md gives the measured false-alarm rates).
 //!
 //! Periods are searched only up to the window's length over `min_cycles`: over fewer
 //! cycles the harmonics of a long period and the trend are nearly collinear, and the
@@ -19,10 +22,10 @@
 //! For speed the search runs on block means of `decimation` samples (the pulse's third
 //! harmonic stays below their Nyquist rate); the final fit at the best period uses every
 //! sample. The period grid is fine enough that the phase drifts by under a tenth of a cycle
-//! across the window between grid points, refined by a parabola. Buffers are allocated at
+//! across a sub-window between grid points, refined by a parabola. Buffers are allocated at
 //! construction.
 
-use nalgebra::SymmetricEigen;
+use nalgebra::{SMatrix, SVector, SymmetricEigen};
 
 use super::harmonic::{
     COEFFS, HarmonicFit, Projection, PulsePhase, Trend, Waveform, fundamental_delay_rad,
@@ -36,13 +39,18 @@ pub struct PulseSearchSettings {
     /// Periods searched, s.
     pub min_period_s: f64,
     pub max_period_s: f64,
-    /// Declared a pulse when the statistic (largest eigenvalue over σ²) exceeds this.
+    /// Declared a pulse when the statistic (the normalized largest eigenvalue, see
+    /// [`normalized`]) exceeds this.
     pub threshold: f64,
     /// Samples averaged per block in the search.
     pub decimation: usize,
     /// Whole cycles the window must hold: periods longer than the window over this are
     /// not searched (over fewer cycles a slow creep looks like a slow pulse).
     pub min_cycles: f64,
+    /// Longest stretch over which the pulse is taken to keep its phase, s: longer windows
+    /// are cut into sub-windows of about this length, fitted each with its own phase, and
+    /// pooled through their common spatial pattern (a heart's rate wanders).
+    pub coherent_s: f64,
 }
 
 /// A pulse found in a window.
@@ -131,31 +139,37 @@ impl PulseSearch {
         let (Some(first), Some(last)) = (self.blocks.first(), self.blocks.last()) else {
             return Err(SearchMiss::TooShort);
         };
-        let span = last.t_s - first.t_s;
-        let hi = hi.min(span / settings.min_cycles.max(1.0));
+        let (t0, span) = (first.t_s, last.t_s - first.t_s);
+        // Sub-windows short enough for the heart to keep its phase within each.
+        let coherent = if settings.coherent_s.is_finite() && settings.coherent_s > 0.0 {
+            settings.coherent_s
+        } else {
+            f64::INFINITY
+        };
+        let m = ((span / coherent).floor() as usize).clamp(1, MAX_SUBWINDOWS);
+        let sub_span = span / m as f64;
+        let hi = hi.min(sub_span / settings.min_cycles.max(1.0));
         if hi.is_nan() || hi <= lo {
             return Err(SearchMiss::TooShort);
         }
-        let t_ref = first.t_s;
+        let bounds = Bounds { t0, sub_span, m };
         let block_var = noise_sd_n * noise_sd_n / d as f64;
-        // Frequency grid: a tenth of a cycle of drift across the window per step.
+        // Frequency grid: a tenth of a cycle of drift across a sub-window per step.
         let (f_lo, f_hi) = (1.0 / hi, 1.0 / lo);
-        let df = 0.1 / span;
+        let df = 0.1 / sub_span;
         let n = ((f_hi - f_lo) / df).ceil().max(1.0) as usize;
         let freq = |i: usize| f_lo + (f_hi - f_lo) * i as f64 / n as f64;
-        let stat_at = |blocks: &[TactileFrame], f: f64| -> f64 {
-            let phase = PulsePhase {
-                t_ref_s: t_ref,
-                period_s: 1.0 / f,
-            };
-            HarmonicFit::fit(blocks.iter(), phase, Trend::Quadratic)
-                .ok()
-                .and_then(|fit| leading(&fit).map(|(l, _)| l / block_var))
-                .unwrap_or(0.0)
+        let blocks = &self.blocks;
+        let stat_at = |f: f64| -> f64 {
+            spatial_scatter(blocks.iter(), &bounds, f)
+                .and_then(|(scatter, dof)| {
+                    leading_eigen(&scatter).map(|(l, _)| normalized(l / block_var, dof))
+                })
+                .unwrap_or(f64::NEG_INFINITY)
         };
         let mut best = (f64::NEG_INFINITY, 0usize);
         for i in 0..=n {
-            let s = stat_at(&self.blocks, freq(i));
+            let s = stat_at(freq(i));
             if s > best.0 {
                 best = (s, i);
             }
@@ -164,15 +178,15 @@ impl PulseSearch {
         // Parabolic refinement of the frequency between the grid neighbours.
         let mut f_best = freq(i);
         if i > 0 && i < n {
-            let below = stat_at(&self.blocks, freq(i - 1));
-            let above = stat_at(&self.blocks, freq(i + 1));
+            let below = stat_at(freq(i - 1));
+            let above = stat_at(freq(i + 1));
             let denom = below - 2.0 * stat + above;
             if denom < 0.0 {
                 let shift = (0.5 * (below - above) / denom).clamp(-0.5, 0.5);
                 f_best += shift * (f_hi - f_lo) / n as f64;
             }
         }
-        let statistic = stat.max(stat_at(&self.blocks, f_best));
+        let statistic = stat.max(stat_at(f_best));
         if statistic.is_nan() || statistic <= settings.threshold {
             return Err(SearchMiss::BelowThreshold {
                 statistic,
@@ -180,28 +194,58 @@ impl PulseSearch {
                 threshold: settings.threshold,
             });
         }
-        // The waveform at the best period, then every sample fitted with it.
+        self.describe(frames, &bounds, f_best, statistic, noise_sd_n)
+    }
+
+    /// The pulse at frequency `f`: its spatial pattern from all sub-windows, each
+    /// element's amplitude averaged over them (each sub-window with its own phase), and
+    /// the phase and waveform of the last sub-window (the most recent) for the beat clock.
+    fn describe<'a>(
+        &self,
+        frames: impl Iterator<Item = &'a TactileFrame> + Clone,
+        bounds: &Bounds,
+        f: f64,
+        statistic: f64,
+        noise_sd_n: f64,
+    ) -> Result<PulseFound, SearchMiss> {
+        let (scatter, _) =
+            spatial_scatter(frames.clone(), bounds, f).ok_or(SearchMiss::TooShort)?;
+        let (_, pattern) = leading_eigen(&scatter).ok_or(SearchMiss::TooShort)?;
         let phase = PulsePhase {
-            t_ref_s: t_ref,
-            period_s: 1.0 / f_best,
+            t_ref_s: bounds.t0,
+            period_s: 1.0 / f,
         };
-        let fit = HarmonicFit::fit(self.blocks.iter(), phase, Trend::Quadratic)
-            .map_err(|_| SearchMiss::TooShort)?;
-        let (_, mut waveform) = leading(&fit).ok_or(SearchMiss::TooShort)?;
+        let mut sum = [0.0; ELEMENTS];
+        let mut var_sum = 0.0;
+        let mut last: Option<Waveform> = None;
+        for j in 0..bounds.m {
+            let fit = bounds
+                .fit(frames.clone(), j, phase)
+                .ok_or(SearchMiss::TooShort)?;
+            let w: [f64; ELEMENTS] = std::array::from_fn(|e| pattern[e]);
+            let q = fit.combine(&w);
+            let Some(p) = fit.project(&q) else {
+                continue;
+            };
+            // Scale each sub-window's amplitudes to a unit waveform.
+            let norm = q.norm();
+            for (s, a) in sum.iter_mut().zip(&p.amplitude_n) {
+                *s += a * norm;
+            }
+            var_sum += (p.se_per_sigma * norm).powi(2);
+            last = Some(q);
+        }
+        let mut waveform = last.ok_or(SearchMiss::TooShort)?;
         let norm = waveform.norm();
         if norm.is_nan() || norm <= 0.0 {
             return Err(SearchMiss::TooShort);
         }
         waveform /= norm;
-        let delay = fundamental_delay_rad(&waveform);
-        waveform = shift_waveform(&waveform, -delay);
-        let phase = PulsePhase {
-            t_ref_s: t_ref + delay / phase.omega_rad_s(),
-            period_s: phase.period_s,
+        let m = bounds.m as f64;
+        let mut amplitudes = Projection {
+            amplitude_n: sum.map(|s| s / m),
+            se_per_sigma: var_sum.sqrt() / m,
         };
-        let full =
-            HarmonicFit::fit(frames, phase, Trend::Quadratic).map_err(|_| SearchMiss::TooShort)?;
-        let mut amplitudes = full.project(&waveform).ok_or(SearchMiss::TooShort)?;
         let strongest = amplitudes
             .amplitude_n
             .iter()
@@ -214,17 +258,12 @@ impl PulseSearch {
                 *a = -*a;
             }
         }
-        // A sign flip moves the fundamental's peak by half a period: keep it a pure cosine.
-        let (waveform, phase) = if waveform[0] < 0.0 {
-            (
-                shift_waveform(&waveform, -std::f64::consts::PI),
-                PulsePhase {
-                    t_ref_s: phase.t_ref_s + 0.5 * phase.period_s,
-                    period_s: phase.period_s,
-                },
-            )
-        } else {
-            (waveform, phase)
+        // The fundamental a pure cosine: the clock's phase reference.
+        let delay = fundamental_delay_rad(&waveform);
+        let waveform = shift_waveform(&waveform, -delay);
+        let phase = PulsePhase {
+            t_ref_s: phase.t_ref_s + delay / phase.omega_rad_s(),
+            period_s: phase.period_s,
         };
         Ok(PulseFound {
             phase,
@@ -281,24 +320,86 @@ impl PulseSearch {
     }
 }
 
-/// The largest eigenvalue of the whitened coefficients' scatter and the waveform (in
-/// coefficient space) it belongs to.
-fn leading(fit: &HarmonicFit) -> Option<(f64, Waveform)> {
-    let chol = fit.information.cholesky()?;
-    let l = chol.l();
-    let mut scatter = nalgebra::SMatrix::<f64, COEFFS, COEFFS>::zeros();
-    for c in &fit.coeffs {
-        let w = l.transpose() * c;
-        scatter += w * w.transpose();
+/// Most sub-windows a search splits a window into.
+const MAX_SUBWINDOWS: usize = 64;
+
+/// A window cut into `m` equal sub-windows from `t0`.
+#[derive(Debug, Clone, Copy)]
+struct Bounds {
+    t0: f64,
+    sub_span: f64,
+    m: usize,
+}
+
+impl Bounds {
+    fn contains(&self, j: usize, t: f64) -> bool {
+        let lo = self.t0 + j as f64 * self.sub_span;
+        let hi = lo + self.sub_span;
+        // The last sub-window keeps its end sample.
+        t >= lo && (t < hi || (j + 1 == self.m && t <= hi + 1e-9))
     }
-    let eig = SymmetricEigen::new(scatter);
+
+    fn fit<'a>(
+        &self,
+        frames: impl Iterator<Item = &'a TactileFrame> + Clone,
+        j: usize,
+        phase: PulsePhase,
+    ) -> Option<HarmonicFit> {
+        HarmonicFit::fit(
+            frames.filter(move |f| self.contains(j, f.t_s)),
+            phase,
+            Trend::Quadratic,
+        )
+        .ok()
+    }
+}
+
+/// `Σ_j C_j S_j C_jᵀ` over the sub-windows at frequency `f`: the elements' covariance of
+/// whitened harmonic coefficients (noise alone: σ² times the identity times the degrees
+/// of freedom), and those degrees of freedom.
+fn spatial_scatter<'a>(
+    frames: impl Iterator<Item = &'a TactileFrame> + Clone,
+    bounds: &Bounds,
+    f: f64,
+) -> Option<(SMatrix<f64, ELEMENTS, ELEMENTS>, usize)> {
+    let phase = PulsePhase {
+        t_ref_s: bounds.t0,
+        period_s: 1.0 / f,
+    };
+    let mut scatter = SMatrix::<f64, ELEMENTS, ELEMENTS>::zeros();
+    let mut dof = 0;
+    for j in 0..bounds.m {
+        let fit = bounds.fit(frames.clone(), j, phase)?;
+        let mut c = SMatrix::<f64, ELEMENTS, COEFFS>::zeros();
+        for e in 0..ELEMENTS {
+            c.set_row(e, &fit.coeffs[e].transpose());
+        }
+        scatter += c * fit.information * c.transpose();
+        dof += COEFFS;
+    }
+    Some((scatter, dof))
+}
+
+/// Largest eigenvalue of a symmetric matrix and its unit eigenvector.
+fn leading_eigen(m: &SMatrix<f64, ELEMENTS, ELEMENTS>) -> Option<(f64, SVector<f64, ELEMENTS>)> {
+    let eig = SymmetricEigen::new(*m);
     let (k, &lambda) = eig
         .eigenvalues
         .iter()
         .enumerate()
         .max_by(|a, b| a.1.total_cmp(b.1))?;
-    let v = eig.eigenvectors.column(k).into_owned();
-    // Back from whitened coordinates: Lᵀ q = v.
-    let q = l.transpose().solve_upper_triangular(&v)?;
-    lambda.is_finite().then_some((lambda, q))
+    lambda
+        .is_finite()
+        .then(|| (lambda, eig.eigenvectors.column(k).into_owned()))
+}
+
+/// The largest eigenvalue of a white-noise Wishart matrix (`ELEMENTS` × `dof`, unit
+/// variance) centred and scaled by its Tracy–Widom approximation (Johnstone 2001): about
+/// −1.2 ± 1.3 for noise alone, whatever the number of sub-windows.
+pub fn normalized(lambda: f64, dof: usize) -> f64 {
+    let n = dof as f64 - 0.5;
+    let p = ELEMENTS as f64 - 0.5;
+    let mu = (n.sqrt() + p.sqrt()).powi(2);
+    let scale = mu.sqrt() * (1.0 / n.sqrt() + 1.0 / p.sqrt()).cbrt();
+    (lambda - mu) / scale
 }

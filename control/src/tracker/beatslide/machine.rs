@@ -313,6 +313,7 @@ impl BeatSlide {
             threshold: self.params.detection_threshold,
             decimation: SEARCH_DECIMATION,
             min_cycles: MIN_CYCLES,
+            coherent_s: self.params.coherent_s,
         }
     }
 
@@ -892,6 +893,7 @@ fn check_params(p: &BeatSlideParams, fs: f64) -> Result<(), InvalidParams> {
         ("min_period_s", p.min_period_s),
         ("max_period_s", p.max_period_s),
         ("detection_threshold", p.detection_threshold),
+        ("coherent_s", p.coherent_s),
         ("mark_window_s", p.mark_window_s),
         ("mark_extend_s", p.mark_extend_s),
         ("mark_max_window_s", p.mark_max_window_s),

@@ -10,10 +10,14 @@ pub struct BeatSlideParams {
     /// as `seed2002`).
     pub min_period_s: f64,
     pub max_period_s: f64,
-    /// A pulse is declared at rest when the search statistic (largest eigenvalue of the
-    /// whitened harmonic scatter over σ²) exceeds this. Measured on noise-only windows:
-    /// about 0.1 % false alarms at 60–66 for 3–16 s windows.
+    /// A pulse is declared at rest when the search statistic (the largest eigenvalue of the
+    /// elements' whitened harmonic scatter, normalized by its noise-only law) exceeds this.
+    /// Chosen on noise-only windows (docs/tracker-beatslide.md).
     pub detection_threshold: f64,
+    /// Longest stretch over which a heart is taken to keep its phase, s: searches at rest
+    /// over longer windows pool sub-windows of about this length through their common
+    /// spatial pattern.
+    pub coherent_s: f64,
     /// First window of a mark, s; extended by `mark_extend_s` while nothing is found, up to
     /// `mark_max_window_s` (a weak pulse is felt by waiting longer).
     pub mark_window_s: f64,
@@ -71,10 +75,11 @@ impl Default for BeatSlideParams {
         Self {
             min_period_s: 0.45,
             max_period_s: 2.2,
-            detection_threshold: 70.0,
+            detection_threshold: 8.0,
+            coherent_s: 12.0,
             mark_window_s: 4.0,
             mark_extend_s: 2.0,
-            mark_max_window_s: 20.0,
+            mark_max_window_s: 40.0,
             search_window_s: 4.0,
             fix_snr: 5.0,
             target_snr: 10.0,
