@@ -4,8 +4,16 @@
 //! around [`pulsetrackd_main`] and [`pulsetrack_main`], so that end-to-end tests can build
 //! the very same programs under their own names.
 
+pub mod backend;
 pub mod cli;
+pub mod console;
 pub mod plot;
+pub mod pulsetrackd;
+pub mod recording;
+pub mod rt;
+pub mod service;
+pub mod slot;
+pub mod supervisor;
 
 use std::process::ExitCode;
 
@@ -16,6 +24,5 @@ pub fn pulsetrack_main() -> ExitCode {
 
 /// Entry point of the `pulsetrackd` daemon.
 pub fn pulsetrackd_main() -> ExitCode {
-    eprintln!("pulsetrackd: the daemon is not built yet; use `pulsetrack sim`");
-    ExitCode::FAILURE
+    pulsetrackd::main()
 }

@@ -16,7 +16,9 @@ pub use backend::{
     Backend, CanAdapter, CanJoints, HardwareBackend, SLCAN_BITRATES, SerialTactile, SimBackend,
 };
 pub use control_section::ControlSection;
-pub use daemon_sections::{ConsoleSection, RecordingSection, SafetySection};
+pub use daemon_sections::{
+    ConsoleSection, OperationSection, RealtimeSection, RecordingSection, SafetySection,
+};
 pub use robot::RobotSection;
 pub use tracker_section::TrackerSection;
 
@@ -40,6 +42,10 @@ pub struct Config {
     pub tracker: TrackerSection,
     #[serde(default)]
     pub safety: SafetySection,
+    #[serde(default)]
+    pub operation: OperationSection,
+    #[serde(default)]
+    pub realtime: RealtimeSection,
     #[serde(default)]
     pub console: ConsoleSection,
     #[serde(default)]
@@ -65,6 +71,8 @@ impl Validate for Config {
             self.tracker.validate_with_sensor(&self.sensor, v)
         });
         v.section("safety", &self.safety);
+        v.section("operation", &self.operation);
+        v.section("realtime", &self.realtime);
         v.section("console", &self.console);
         v.section("recording", &self.recording);
     }

@@ -2,7 +2,10 @@
 
 mod bench;
 mod check_config;
+pub mod console;
+mod demo;
 mod fem;
+mod recover;
 mod sim;
 
 use std::process::ExitCode;
@@ -24,8 +27,15 @@ struct Cli {
 enum Command {
     /// Check a configuration or scene file and report every problem with file, line and field.
     CheckConfig(check_config::Args),
+    /// Run a whole seeded tracking trial on the simulator through the real daemon and
+    /// console; print the summary and write plots.
+    Demo(demo::Args),
+    #[command(flatten)]
+    Console(console::Verb),
     /// Run the tissue FEM: the seed papers' studies or one model file.
     Fem(fem::Args),
+    /// Rewrite trial recordings cut short (kill -9, crash) as complete MCAP files.
+    Recover(recover::Args),
     /// Run whole trials on the simulated bench in lockstep and report the tracking error.
     Sim(sim::Args),
     /// Monte Carlo of trials over scenes and trackers on every core: speed against error.
@@ -36,7 +46,10 @@ pub fn run() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::CheckConfig(args) => check_config::run(&args),
+        Command::Demo(args) => demo::run(&args),
+        Command::Console(verb) => console::run(&verb),
         Command::Fem(args) => fem::run(&args),
+        Command::Recover(args) => recover::run(&args),
         Command::Sim(args) => sim::run(&args),
         Command::Bench(args) => bench::run(&args),
     }

@@ -1,0 +1,509 @@
+//! Console verbs: `pulsetrack status`, `enable`, `move`, `mark`, `track`, `watch`, ... Each
+//! connects to the daemon's socket, sends one request and prints the reply (or, for `track`
+//! and `watch`, follows the event stream).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use serde_json::{Value, json};
+
+use crate::console::client::{Client, ClientError};
+
+/// Where to find the daemon.
+#[derive(Debug, Clone, clap::Args)]
+pub struct Conn {
+    /// The daemon's console socket (default: $PULSETRACK_SOCKET, else the config's).
+    #[arg(long)]
+    pub socket: Option<PathBuf>,
+    /// Read the socket path from this daemon config (default: the embedded sim config).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Print raw JSON replies and events.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl Conn {
+    pub fn socket_path(&self) -> Result<PathBuf, String> {
+        if let Some(s) = &self.socket {
+            return Ok(s.clone());
+        }
+        if let Some(s) = std::env::var_os("PULSETRACK_SOCKET")
+            && self.config.is_none()
+        {
+            return Ok(PathBuf::from(s));
+        }
+        let loaded = crate::pulsetrackd::LoadedConfig::load(self.config.as_deref())
+            .map_err(|e| e.to_string())?;
+        Ok(PathBuf::from(loaded.config.console.socket_path))
+    }
+
+    pub fn connect(&self) -> Result<Client, String> {
+        let path = self.socket_path()?;
+        Client::connect(&path, Duration::from_secs(5)).map_err(|e| e.to_string())
+    }
+}
+
+#[derive(Debug, clap::Args)]
+pub struct Plain {
+    #[command(flatten)]
+    pub conn: Conn,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct JogArgs {
+    #[command(flatten)]
+    pub conn: Conn,
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub dx_m: f64,
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub dz_m: f64,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct MoveArgs {
+    #[command(flatten)]
+    pub conn: Conn,
+    #[arg(long, allow_negative_numbers = true)]
+    pub x_m: f64,
+    #[arg(long, allow_negative_numbers = true)]
+    pub z_m: f64,
+    #[arg(long)]
+    pub speed_m_s: Option<f64>,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct TrackArgs {
+    #[command(flatten)]
+    pub conn: Conn,
+    /// Length of artery to follow, m; without it, until the artery is lost.
+    #[arg(long)]
+    pub length_m: Option<f64>,
+    /// Return once tracking has started.
+    #[arg(long)]
+    pub detach: bool,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct WatchArgs {
+    #[command(flatten)]
+    pub conn: Conn,
+    /// Streams: state, tactile, detections, faults, trials (default: all but tactile).
+    #[arg(long, value_delimiter = ',')]
+    pub streams: Vec<String>,
+    /// Show every n-th tactile frame.
+    #[arg(long, default_value_t = 10)]
+    pub tactile_every: u32,
+}
+
+/// The console verbs (subcommands of `pulsetrack`).
+#[derive(Debug, clap::Subcommand)]
+pub enum Verb {
+    /// The daemon's state, arm, tactile stream, trial and loop timing.
+    Status(Plain),
+    /// Power the arm; it holds where it is.
+    Enable(Plain),
+    /// Remove power (ends a trial).
+    Disable(Plain),
+    /// Move the sensor to the configured home point.
+    Home(Plain),
+    /// Move the sensor by a small step (bounded by operation.max_jog_m).
+    Jog(JogArgs),
+    /// Move the sensor centre to a tissue-frame point.
+    Move(MoveArgs),
+    /// Acquire here and localize the artery (twice, at two placements, to seed a track).
+    Mark(Plain),
+    /// Follow the artery from the two seed points and show progress until the trial ends.
+    Track(TrackArgs),
+    /// Suspend tracking and hold still.
+    Pause(Plain),
+    /// Continue tracking.
+    Resume(Plain),
+    /// Stop the current move, mark or track.
+    Stop(Plain),
+    /// Emergency stop: power off at once and latch a fault.
+    Estop(Plain),
+    /// Clear a latched fault (the arm stays unpowered).
+    Reset(Plain),
+    /// Print the daemon's event stream.
+    Watch(WatchArgs),
+}
+
+impl Verb {
+    fn conn(&self) -> &Conn {
+        match self {
+            Verb::Status(a)
+            | Verb::Enable(a)
+            | Verb::Disable(a)
+            | Verb::Home(a)
+            | Verb::Mark(a)
+            | Verb::Pause(a)
+            | Verb::Resume(a)
+            | Verb::Stop(a)
+            | Verb::Estop(a)
+            | Verb::Reset(a) => &a.conn,
+            Verb::Jog(a) => &a.conn,
+            Verb::Move(a) => &a.conn,
+            Verb::Track(a) => &a.conn,
+            Verb::Watch(a) => &a.conn,
+        }
+    }
+}
+
+const TIMEOUT: Duration = Duration::from_secs(15);
+
+pub fn run(verb: &Verb) -> ExitCode {
+    match run_inner(verb.conn(), verb) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("pulsetrack: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run_inner(conn: &Conn, verb: &Verb) -> Result<ExitCode, String> {
+    let mut c = conn.connect()?;
+    let (name, args) = match verb {
+        Verb::Status(_) => ("status", json!({})),
+        Verb::Enable(_) => ("enable", json!({})),
+        Verb::Disable(_) => ("disable", json!({})),
+        Verb::Home(_) => ("home", json!({})),
+        Verb::Jog(a) => ("jog", json!({"dx_m": a.dx_m, "dz_m": a.dz_m})),
+        Verb::Move(a) => (
+            "move",
+            json!({"x_m": a.x_m, "z_m": a.z_m, "speed_m_s": a.speed_m_s}),
+        ),
+        Verb::Mark(_) => ("mark", json!({})),
+        Verb::Track(a) => return track(&mut c, a.length_m, a.detach, conn.json),
+        Verb::Pause(_) => ("pause", json!({})),
+        Verb::Resume(_) => ("resume", json!({})),
+        Verb::Stop(_) => ("stop", json!({})),
+        Verb::Estop(_) => ("estop", json!({})),
+        Verb::Reset(_) => ("reset", json!({})),
+        Verb::Watch(a) => return watch(&mut c, &a.streams, a.tactile_every, conn.json),
+    };
+    let reply = c.request(name, args, TIMEOUT).map_err(|e| e.to_string())?;
+    let ok = reply["ok"] == Value::Bool(true);
+    if conn.json {
+        println!("{reply}");
+    } else if ok {
+        if name == "status" {
+            print_status(&reply);
+        } else {
+            println!(
+                "{name}: ok (state {})",
+                reply["state"].as_str().unwrap_or("?")
+            );
+        }
+    } else {
+        eprintln!(
+            "{name}: refused: {} [{}]",
+            reply["reason"].as_str().unwrap_or("?"),
+            reply["error"].as_str().unwrap_or("?")
+        );
+    }
+    Ok(if ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+fn mm(v: &Value) -> String {
+    v.as_f64()
+        .map(|m| format!("{:.2} mm", m * 1000.0))
+        .unwrap_or_else(|| "-".into())
+}
+
+fn print_status(r: &Value) {
+    println!("state      {}", r["state"].as_str().unwrap_or("?"));
+    if !r["fault"].is_null() {
+        println!(
+            "fault      {}",
+            r["fault"]["reason"].as_str().unwrap_or("?")
+        );
+        if let Some(p) = r["fault"]["flight_recorder"].as_str() {
+            println!("           flight recorder: {p}");
+        }
+    }
+    let b = &r["backend"];
+    println!(
+        "backend    {} (time scale {})",
+        b["kind"].as_str().unwrap_or("?"),
+        b["time_scale"]
+    );
+    if let Some(s) = b["scene"].as_object() {
+        println!(
+            "scene      {}",
+            s.get("name").and_then(Value::as_str).unwrap_or("?")
+        );
+    }
+    println!("clock      {:.3} s", r["t_s"].as_f64().unwrap_or(0.0));
+    let a = &r["arm"];
+    println!(
+        "sensor     x {}  z {}  (setpoint x {}  z {}), depth {}",
+        mm(&a["sensor"]["x_m"]),
+        mm(&a["sensor"]["z_m"]),
+        mm(&a["setpoint"]["x_m"]),
+        mm(&a["setpoint"]["z_m"]),
+        mm(&a["depth_m"])
+    );
+    let t = &r["tactile"];
+    println!(
+        "tactile    {} frames, newest {} s old, contact {} N",
+        t["frames"],
+        t["age_s"]
+            .as_f64()
+            .map(|v| format!("{v:.3}"))
+            .unwrap_or("-".into()),
+        t["contact_n"]
+            .as_f64()
+            .map(|v| format!("{v:.3}"))
+            .unwrap_or("-".into())
+    );
+    if let Some(tr) = r["trial"].as_object() {
+        println!(
+            "trial      {}: {} seeds, {} located, {} followed",
+            tr.get("trial").and_then(Value::as_str).unwrap_or("?"),
+            tr.get("seeds").unwrap_or(&Value::Null),
+            tr.get("located").unwrap_or(&Value::Null),
+            mm(tr.get("followed_m").unwrap_or(&Value::Null))
+        );
+    }
+    let l = &r["loop"];
+    let p = &l["period"];
+    if p.is_null() {
+        println!(
+            "loop       {} cycles, {} overruns; period not reported yet",
+            l["cycles"], l["overruns"]
+        );
+    } else {
+        println!(
+            "loop       {} cycles, {} overruns; period p50 {} us, p99 {} us, p99.9 {} us, max {:.0} us{}",
+            l["cycles"],
+            l["overruns"],
+            p["p50_us"],
+            p["p99_us"],
+            p["p999_us"],
+            p["max_us"].as_f64().unwrap_or(f64::NAN),
+            if p["batched"] == Value::Bool(true) {
+                format!(
+                    " (1 ms batches; {:.1}x real time)",
+                    p["achieved_time_scale"].as_f64().unwrap_or(f64::NAN)
+                )
+            } else {
+                String::new()
+            }
+        );
+    }
+}
+
+fn subscribe(c: &mut Client, streams: &[&str], tactile_every: u32) -> Result<(), String> {
+    c.call(
+        "subscribe",
+        json!({"streams": streams, "tactile_every": tactile_every}),
+        TIMEOUT,
+    )
+    .map(|_| ())
+    .map_err(|e| e.to_string())
+}
+
+/// One line for a stream event.
+pub fn describe_event(e: &Value) -> Option<String> {
+    let t = e["t_s"].as_f64().unwrap_or(f64::NAN);
+    match e["event"].as_str()? {
+        "state" if e.get("from").is_some() => Some(format!(
+            "[{t:9.3} s] state {} -> {}",
+            e["from"].as_str().unwrap_or("?"),
+            e["state"].as_str().unwrap_or("?")
+        )),
+        "state" => None,
+        "detection" => match e["kind"].as_str()? {
+            "located" => {
+                let p = &e["point"];
+                Some(format!(
+                    "[{t:9.3} s] located{} at x {} z {} (element {:.1})",
+                    if p["seed"] == Value::Bool(true) {
+                        " seed"
+                    } else {
+                        ""
+                    },
+                    mm(&p["x_m"]),
+                    mm(&p["z_m"]),
+                    p["element"].as_f64().unwrap_or(f64::NAN)
+                ))
+            }
+            "missed" => Some(format!(
+                "[{t:9.3} s] no pulse at x {} z {}",
+                mm(&e["x_m"]),
+                mm(&e["z_m"])
+            )),
+            "backtracking" => Some(format!(
+                "[{t:9.3} s] backtracking toward x {} z {}",
+                mm(&e["x_m"]),
+                mm(&e["z_m"])
+            )),
+            "pulse" => Some(format!(
+                "[{t:9.3} s] pulse period {:.3} s",
+                e["period_s"].as_f64().unwrap_or(f64::NAN)
+            )),
+            "finished" => Some(format!(
+                "[{t:9.3} s] tracking finished: {}",
+                e["reason"].as_str().unwrap_or("?")
+            )),
+            _ => None,
+        },
+        "fault" => Some(format!(
+            "[{t:9.3} s] FAULT {}",
+            e["reason"].as_str().unwrap_or("?")
+        )),
+        "trial" => Some(format!(
+            "[{t:9.3} s] trial {} {}{}",
+            e["trial"].as_str().unwrap_or("?"),
+            e["phase"].as_str().unwrap_or("?"),
+            e["end_reason"]
+                .as_str()
+                .map(|r| format!(" ({r})"))
+                .unwrap_or_default()
+        )),
+        "tactile" => Some(format!(
+            "[{t:9.3} s] tactile #{}: {}",
+            e["seq"],
+            e["force_n"]
+                .as_array()
+                .map(|a| a
+                    .iter()
+                    .map(|v| format!("{:6.3}", v.as_f64().unwrap_or(f64::NAN)))
+                    .collect::<Vec<_>>()
+                    .join(" "))
+                .unwrap_or_default()
+        )),
+        "lagged" => Some(format!("(missed {} events)", e["dropped"])),
+        _ => None,
+    }
+}
+
+/// Print a line; false once stdout is gone (a closed pipe ends `watch` quietly).
+fn emit(line: &str) -> bool {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{line}").and_then(|()| out.flush()).is_ok()
+}
+
+fn watch(c: &mut Client, streams: &[String], every: u32, raw: bool) -> Result<ExitCode, String> {
+    let names: Vec<&str> = if streams.is_empty() {
+        vec!["state", "detections", "faults", "trials"]
+    } else {
+        streams.iter().map(String::as_str).collect()
+    };
+    subscribe(c, &names, every)?;
+    loop {
+        match c.next_event(Duration::from_secs(3600)) {
+            Ok(Some(e)) => {
+                let line = if raw {
+                    Some(e.to_string())
+                } else {
+                    describe_event(&e)
+                };
+                if let Some(line) = line
+                    && !emit(&line)
+                {
+                    return Ok(ExitCode::SUCCESS);
+                }
+            }
+            Ok(None) => {}
+            Err(ClientError::Closed) => return Ok(ExitCode::SUCCESS),
+            Err(e) => return Err(e.to_string()),
+        }
+    }
+}
+
+fn track(
+    c: &mut Client,
+    length_m: Option<f64>,
+    detach: bool,
+    raw: bool,
+) -> Result<ExitCode, String> {
+    subscribe(c, &["state", "detections", "faults", "trials"], 1)?;
+    let r = c
+        .call("track", json!({"length_m": length_m}), TIMEOUT)
+        .map_err(|e| e.to_string())?;
+    if detach {
+        println!("tracking (state {})", r["state"].as_str().unwrap_or("?"));
+        return Ok(ExitCode::SUCCESS);
+    }
+    loop {
+        let Some(e) = c
+            .next_event(Duration::from_secs(3600))
+            .map_err(|e| e.to_string())?
+        else {
+            continue;
+        };
+        let line = if raw {
+            Some(e.to_string())
+        } else {
+            describe_event(&e)
+        };
+        if let Some(line) = line {
+            emit(&line);
+        }
+        match e["event"].as_str() {
+            Some("trial") if e["phase"] == "ended" => {
+                if !raw {
+                    print_summary(&e["summary"]);
+                }
+                let done = e["summary"]["completed"] == Value::Bool(true);
+                return Ok(if done {
+                    ExitCode::SUCCESS
+                } else {
+                    ExitCode::FAILURE
+                });
+            }
+            Some("fault") => return Ok(ExitCode::FAILURE),
+            _ => {}
+        }
+    }
+}
+
+/// The trial summary in a few lines.
+pub fn print_summary(s: &Value) {
+    println!("trial      {}", s["trial"].as_str().unwrap_or("?"));
+    println!(
+        "result     {} ({})",
+        if s["completed"] == Value::Bool(true) {
+            "completed"
+        } else {
+            "not completed"
+        },
+        s["end_reason"].as_str().unwrap_or("?")
+    );
+    println!(
+        "time       {:.1} s tracking, {} heartbeats, {} backtracks",
+        s["duration_s"].as_f64().unwrap_or(0.0),
+        s["beats"]
+            .as_f64()
+            .map(|b| format!("{b:.0}"))
+            .unwrap_or("-".into()),
+        s["backtracks"]
+    );
+    println!(
+        "followed   {} over {} located points",
+        mm(&s["followed_m"]),
+        s["located"].as_array().map(Vec::len).unwrap_or(0)
+    );
+    let e = &s["lateral_error_m"];
+    if e.is_null() {
+        println!("error      (no ground truth on this backend)");
+    } else {
+        println!(
+            "lateral    mean {}, SD {}, max {} over {} points",
+            mm(&e["mean"]),
+            mm(&e["sd"]),
+            mm(&e["max"]),
+            e["n"]
+        );
+    }
+    println!("recording  {}", s["recording"].as_str().unwrap_or("?"));
+}

@@ -1,0 +1,413 @@
+//! `pulsetrack demo`: the README's first command. Starts the real daemon (in this process,
+//! on the embedded simulated bench, its console on a real Unix socket), drives a whole
+//! seeded trial over that socket exactly as a surgeon's console would — move to the scene's
+//! first placement, mark, second placement, mark, track — shows progress, prints the
+//! summary and writes plots.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use serde_json::{Value, json};
+
+use crate::cli::console::{describe_event, print_summary};
+use crate::console::client::Client;
+use crate::pulsetrackd::{Daemon, LoadedConfig};
+use crate::recording::recover;
+use crate::recording::topics::Topic;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// A shipped scene by name or a scene file (default: the embedded config's scene).
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// Simulated seconds per wall second.
+    #[arg(long, default_value_t = 25.0)]
+    pub time_scale: f64,
+    /// Random seed of the simulated bench.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Tracker by name (default: the config's, `seed2002`).
+    #[arg(long)]
+    pub tracker: Option<String>,
+    /// Where the recording, the summary and the plots go.
+    #[arg(long, default_value = "pulsetrack-demo")]
+    pub out: PathBuf,
+}
+
+const T: Duration = Duration::from_secs(30);
+
+/// Marks tried at one placement before giving up.
+const MARK_ATTEMPTS: usize = 3;
+
+pub fn run(args: &Args) -> ExitCode {
+    match run_inner(args) {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("pulsetrack demo: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn demo_config(args: &Args, out: &Path) -> Result<LoadedConfig, String> {
+    let mut loaded = LoadedConfig::load(None).map_err(|e| e.to_string())?;
+    let c = &mut loaded.config;
+    if let config::schema::Backend::Sim(s) = &mut c.backend {
+        if let Some(scene) = &args.scene {
+            s.scene = scene.clone();
+        }
+        if let Some(seed) = args.seed {
+            s.seed = seed;
+        }
+        if !(args.time_scale.is_finite() && (0.01..=1.0e6).contains(&args.time_scale)) {
+            return Err(format!(
+                "--time-scale {} must be in 0.01..1e6",
+                args.time_scale
+            ));
+        }
+        s.time_scale = args.time_scale;
+    }
+    if let Some(t) = &args.tracker {
+        c.tracker.name = t.clone();
+    }
+    // A private socket: the demo must not collide with a daemon already running.
+    let sock_dir = socket_dir();
+    c.console.socket_path = sock_dir.join("console.sock").display().to_string();
+    c.recording.dir = out.join("trials").display().to_string();
+    c.realtime.lock_memory = false;
+    // Scenes given as paths resolve against the working directory.
+    loaded.dir = std::env::current_dir().ok();
+    Ok(loaded)
+}
+
+fn socket_dir() -> PathBuf {
+    std::env::temp_dir().join(format!("pulsetrack-demo-{}", std::process::id()))
+}
+
+fn run_inner(args: &Args) -> Result<bool, String> {
+    let out = &args.out;
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let out = out
+        .canonicalize()
+        .map_err(|e| format!("{}: {e}", out.display()))?;
+    crate::service::logging::init("warn");
+    let loaded = demo_config(args, &out)?;
+    let wall0 = Instant::now();
+    println!(
+        "pulsetrack demo: starting pulsetrackd on the simulated bench ({}x real time)",
+        args.time_scale
+    );
+    let artery = true_path(&loaded);
+    let daemon = Daemon::start(loaded).map_err(|e| e.to_string())?;
+    let result = drive(&daemon, &out, wall0, &artery);
+    let stopped = daemon.shutdown();
+    let _ = std::fs::remove_dir(socket_dir());
+    stopped.map_err(|e| format!("daemon shutdown: {e}"))?;
+    result
+}
+
+/// The scene's true artery path, sampled every millimetre, for the top view (mm).
+fn true_path(loaded: &LoadedConfig) -> Vec<(f64, f64)> {
+    let config::schema::Backend::Sim(s) = &loaded.config.backend else {
+        return Vec::new();
+    };
+    let Ok(scene) = sim::scene::load(&s.scene, loaded.dir.as_deref()) else {
+        return Vec::new();
+    };
+    sim::scene::ArteryPath::from_spec(&scene.artery.path)
+        .map(|p| {
+            p.sample(0.001)
+                .iter()
+                .map(|q| (q.x_m * 1e3, q.z_m * 1e3))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn drive(
+    daemon: &Daemon,
+    out: &Path,
+    wall0: Instant,
+    artery: &[(f64, f64)],
+) -> Result<bool, String> {
+    let mut c = Client::connect(daemon.socket_path(), T).map_err(|e| e.to_string())?;
+    println!(
+        "console:  {} (protocol {})",
+        daemon.socket_path().display(),
+        c.hello["protocol"]
+    );
+    c.call(
+        "subscribe",
+        json!({"streams": ["state", "detections", "faults", "trials"]}),
+        T,
+    )
+    .map_err(|e| e.to_string())?;
+    let status = wait_live(&mut c)?;
+    let scene = &status["backend"]["scene"];
+    let name = scene["name"].as_str().unwrap_or("?").to_string();
+    let p = |i: usize, k: usize| scene["placements"][i][k].as_f64();
+    let (Some(x1), Some(z1), Some(x2), Some(z2)) = (p(0, 0), p(0, 1), p(1, 0), p(1, 1)) else {
+        return Err("the daemon's status names no scene placements (not the sim backend?)".into());
+    };
+    let length_m = scene["tracked_length_m"].as_f64();
+    println!(
+        "scene:    {name}: placements ({:.1}, {:.1}) and ({:.1}, {:.1}) mm, track {}",
+        x1 * 1e3,
+        z1 * 1e3,
+        x2 * 1e3,
+        z2 * 1e3,
+        length_m
+            .map(|l| format!("{:.0} mm", l * 1e3))
+            .unwrap_or_else(|| "until lost".into())
+    );
+
+    c.call("enable", json!({}), T).map_err(|e| e.to_string())?;
+    for (i, (x, z)) in [(x1, z1), (x2, z2)].into_iter().enumerate() {
+        println!(
+            "placement {}: moving to ({:.1}, {:.1}) mm",
+            i + 1,
+            x * 1e3,
+            z * 1e3
+        );
+        c.call("move", json!({"x_m": x, "z_m": z}), T)
+            .map_err(|e| e.to_string())?;
+        wait_state(&mut c, "holding")?;
+        // A surgeon who feels nothing marks again; so does the simulator's lockstep runner.
+        let mut found = false;
+        for attempt in 1..=MARK_ATTEMPTS {
+            let again = if attempt > 1 {
+                format!(", attempt {attempt}")
+            } else {
+                String::new()
+            };
+            println!(
+                "placement {}: marking (acquiring the pulse here){again}",
+                i + 1
+            );
+            c.call("mark", json!({}), T).map_err(|e| e.to_string())?;
+            found = wait_mark(&mut c)?;
+            if found {
+                break;
+            }
+            println!("  no pulse found");
+            wait_state(&mut c, "holding")?;
+        }
+        if !found {
+            println!(
+                "no pulse found at placement {} in {MARK_ATTEMPTS} marks: the trial cannot be seeded",
+                i + 1
+            );
+            return Ok(false);
+        }
+    }
+    println!("tracking...");
+    c.call("track", json!({"length_m": length_m}), T)
+        .map_err(|e| e.to_string())?;
+    let summary = loop {
+        let Some(e) = c
+            .next_event(Duration::from_secs(600))
+            .map_err(|e| e.to_string())?
+        else {
+            return Err("no progress from the daemon for 10 minutes".into());
+        };
+        match e["event"].as_str() {
+            Some("trial") if e["phase"] == "ended" => break e["summary"].clone(),
+            Some("fault") => {
+                println!("{}", describe_event(&e).unwrap_or_default());
+                return Ok(false);
+            }
+            Some("detection") => {
+                if let Some(line) = describe_event(&e) {
+                    println!("  {line}");
+                }
+            }
+            _ => {}
+        }
+    };
+    println!();
+    print_summary(&summary);
+    println!("wall time  {:.1} s", wall0.elapsed().as_secs_f64());
+    let plots = out.join("plots");
+    match write_plots(&summary, &plots, artery) {
+        Ok(n) => println!("plots      {} ({n} charts, PNG and SVG)", plots.display()),
+        Err(e) => println!("plots      not written: {e}"),
+    }
+    let summary_path = out.join("summary.json");
+    crate::recording::recorder::write_json_atomically(&summary_path, &summary)
+        .map_err(|e| format!("{}: {e}", summary_path.display()))?;
+    println!("summary    {}", summary_path.display());
+    Ok(summary["completed"] == Value::Bool(true))
+}
+
+/// Status once the tactile stream is live.
+fn wait_live(c: &mut Client) -> Result<Value, String> {
+    let deadline = Instant::now() + T;
+    loop {
+        let s = c.call("status", json!({}), T).map_err(|e| e.to_string())?;
+        if s["tactile"]["frames"].as_u64().unwrap_or(0) > 0 {
+            return Ok(s);
+        }
+        if Instant::now() > deadline {
+            return Err("no tactile frames from the simulator".into());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// Wait until the daemon reports `want` (polling status: state events queued before the
+/// last request would be stale), failing on a fault.
+fn wait_state(c: &mut Client, want: &str) -> Result<(), String> {
+    let deadline = Instant::now() + Duration::from_secs(300);
+    loop {
+        while let Some(e) = c
+            .next_event(Duration::from_millis(50))
+            .map_err(|e| e.to_string())?
+        {
+            if e["event"] == "fault" {
+                return Err(describe_event(&e).unwrap_or_default());
+            }
+        }
+        let s = c.call("status", json!({}), T).map_err(|e| e.to_string())?;
+        if s["state"] == want {
+            return Ok(());
+        }
+        if Instant::now() > deadline {
+            return Err(format!("still {} after 5 minutes", s["state"]));
+        }
+    }
+}
+
+/// Wait for a mark's result: true if the pulse was located.
+fn wait_mark(c: &mut Client) -> Result<bool, String> {
+    loop {
+        let Some(e) = c
+            .next_event(Duration::from_secs(300))
+            .map_err(|e| e.to_string())?
+        else {
+            return Err("the mark gave no result".into());
+        };
+        match (e["event"].as_str(), e["kind"].as_str()) {
+            (Some("detection"), Some("located")) => {
+                println!("  {}", describe_event(&e).unwrap_or_default());
+                return Ok(true);
+            }
+            (Some("detection"), Some("missed")) => return Ok(false),
+            (Some("detection"), _) => {
+                if let Some(l) = describe_event(&e) {
+                    println!("  {l}");
+                }
+            }
+            (Some("fault"), _) => return Err(describe_event(&e).unwrap_or_default()),
+            _ => {}
+        }
+    }
+}
+
+/// Top view, lateral error against distance, and a 4 s trace of all ten elements.
+fn write_plots(summary: &Value, dir: &Path, artery: &[(f64, f64)]) -> Result<usize, String> {
+    use crate::plot::{Chart, Mark, Series, write_chart};
+    let recording = summary["recording"].as_str().ok_or("no recording")?;
+    let back = recover::read(Path::new(recording)).map_err(|e| e.to_string())?;
+    let located: Vec<&Value> = summary["located"]
+        .as_array()
+        .map(|a| a.iter().collect())
+        .unwrap_or_default();
+    let pts = |kx: &str, kz: &str| -> Vec<(f64, f64)> {
+        located
+            .iter()
+            .filter_map(|p| Some((p[kx].as_f64()? * 1e3, p[kz].as_f64()? * 1e3)))
+            .collect()
+    };
+    let mut top = Chart::new("Top view", "x (mm, along the artery)", "z (mm, lateral)");
+    top.equal_aspect = true;
+    let believed: Vec<(f64, f64)> = back
+        .on(Topic::Joints)
+        .filter_map(|m| {
+            Some((
+                m.json["sensor_x_m"].as_f64()? * 1e3,
+                m.json["sensor_z_m"].as_f64()? * 1e3,
+            ))
+        })
+        .collect();
+    let truth: Vec<(f64, f64)> = back
+        .on(Topic::Truth)
+        .filter_map(|m| {
+            Some((
+                m.json["sensor_x_m"].as_f64()? * 1e3,
+                m.json["sensor_z_m"].as_f64()? * 1e3,
+            ))
+        })
+        .collect();
+    if !artery.is_empty() {
+        top = top.with(Series::new(
+            "artery (true path)",
+            artery.to_vec(),
+            Mark::Line,
+        ));
+    }
+    if !truth.is_empty() {
+        top = top.with(Series::new("sensor centre (true)", truth, Mark::Line));
+    }
+    if !believed.is_empty() {
+        top = top.with(Series::new(
+            "sensor centre (believed)",
+            believed,
+            Mark::Line,
+        ));
+    }
+    top = top.with(Series::new(
+        "located artery points",
+        pts("x_m", "z_m"),
+        Mark::Points,
+    ));
+    let mut n = 0;
+    write_chart(&top, dir, "top_view").map_err(|e| e.to_string())?;
+    n += 1;
+
+    let mut along = 0.0;
+    let mut prev: Option<(f64, f64)> = None;
+    let mut err = Vec::new();
+    for p in &located {
+        let (Some(x), Some(z)) = (p["x_m"].as_f64(), p["z_m"].as_f64()) else {
+            continue;
+        };
+        if let Some((px, pz)) = prev {
+            along += (x - px).hypot(z - pz);
+        }
+        prev = Some((x, z));
+        if let Some(e) = p["lateral_error_m"].as_f64() {
+            err.push((along * 1e3, e * 1e3));
+        }
+    }
+    if !err.is_empty() {
+        let c = Chart::new(
+            "Lateral error of located points",
+            "distance followed (mm)",
+            "lateral error (mm)",
+        )
+        .with(Series::new("located points", err, Mark::LinePoints));
+        write_chart(&c, dir, "lateral_error").map_err(|e| e.to_string())?;
+        n += 1;
+    }
+
+    let frames: Vec<&recover::ReadMessage> = back.on(Topic::Tactile).collect();
+    if let Some(first) = frames.first() {
+        let t0 = first.json["t_s"].as_f64().unwrap_or(0.0);
+        let mut c = Chart::new("Tactile array, first 4 s", "t (s)", "force (N)");
+        for el in 0..control::types::ELEMENTS {
+            let s: Vec<(f64, f64)> = frames
+                .iter()
+                .filter_map(|m| {
+                    let t = m.json["t_s"].as_f64()? - t0;
+                    (t <= 4.0).then_some((t, m.json["force_n"][el].as_f64()?))
+                })
+                .collect();
+            c = c.with(Series::new(format!("element {el}"), s, Mark::Line));
+        }
+        write_chart(&c, dir, "tactile_trace").map_err(|e| e.to_string())?;
+        n += 1;
+    }
+    Ok(n)
+}

@@ -1,0 +1,252 @@
+//! The recorder thread: the one place that writes trial files and then tells the world.
+//!
+//! Everything the daemon says to console clients (replies and stream events) passes through
+//! here in order, after the records it concerns: a reply or event marked durable goes out
+//! only once its records are fdatasync'd, so nothing acknowledged is lost to a crash, a
+//! kill -9 or a power cut. Other records reach the kernel every `flush_interval_s` and the
+//! disk every `fsync_interval_s`.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::{Receiver, RecvTimeoutError};
+use serde_json::Value;
+
+use crate::console::hub::{Responder, StreamEvent, StreamHub};
+use crate::recording::topics::Topic;
+use crate::recording::trial_file::TrialFile;
+
+pub enum RecorderMsg {
+    /// Start a trial file `<dir>/<id>.mcap`.
+    Open {
+        id: String,
+        metadata: BTreeMap<String, String>,
+    },
+    /// A record for the open trial (dropped when none is open).
+    Write {
+        topic: Topic,
+        t_s: f64,
+        json: Vec<u8>,
+    },
+    /// Send a stream event to subscribers.
+    Publish {
+        event: Arc<StreamEvent>,
+        durable: bool,
+    },
+    /// Answer a console request.
+    Reply {
+        to: Responder,
+        reply: Value,
+        durable: bool,
+    },
+    /// Finish the open trial: footer, summary JSON beside it, then publish `then`.
+    Close {
+        summary: Value,
+        then: Option<Arc<StreamEvent>>,
+    },
+    /// Close everything and stop.
+    Shutdown { done: crossbeam_channel::Sender<()> },
+}
+
+impl std::fmt::Debug for RecorderMsg {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = match self {
+            RecorderMsg::Open { .. } => "Open",
+            RecorderMsg::Write { .. } => "Write",
+            RecorderMsg::Publish { .. } => "Publish",
+            RecorderMsg::Reply { .. } => "Reply",
+            RecorderMsg::Close { .. } => "Close",
+            RecorderMsg::Shutdown { .. } => "Shutdown",
+        };
+        f.write_str(name)
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct RecorderSettings {
+    pub dir: PathBuf,
+    pub flush_interval: Duration,
+    pub fsync_interval: Duration,
+}
+
+pub struct Recorder {
+    settings: RecorderSettings,
+    hub: StreamHub,
+    file: Option<TrialFile>,
+    trial_id: Option<String>,
+    last_flush: Instant,
+    last_sync: Instant,
+    failed: bool,
+}
+
+impl std::fmt::Debug for Recorder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Recorder")
+            .field("trial", &self.trial_id)
+            .finish()
+    }
+}
+
+impl Recorder {
+    pub fn new(settings: RecorderSettings, hub: StreamHub) -> Self {
+        Self {
+            settings,
+            hub,
+            file: None,
+            trial_id: None,
+            last_flush: Instant::now(),
+            last_sync: Instant::now(),
+            failed: false,
+        }
+    }
+
+    /// Run until `Shutdown` (or every sender is gone).
+    pub fn run(mut self, inbox: Receiver<RecorderMsg>) {
+        loop {
+            match inbox.recv_timeout(self.settings.flush_interval) {
+                Ok(RecorderMsg::Shutdown { done }) => {
+                    self.close_file(None);
+                    let _ = done.send(());
+                    return;
+                }
+                Ok(msg) => self.handle(msg),
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => {
+                    self.close_file(None);
+                    return;
+                }
+            }
+            self.periodic();
+        }
+    }
+
+    fn handle(&mut self, msg: RecorderMsg) {
+        match msg {
+            RecorderMsg::Open { id, metadata } => self.open(id, metadata),
+            RecorderMsg::Write { topic, t_s, json } => {
+                if let Some(f) = self.file.as_mut()
+                    && let Err(e) = f.write(topic, t_s, &json)
+                {
+                    self.fail(&e);
+                }
+            }
+            RecorderMsg::Publish { event, durable } => {
+                if durable {
+                    self.sync();
+                }
+                self.hub.publish(event);
+            }
+            RecorderMsg::Reply { to, reply, durable } => {
+                if durable {
+                    self.sync();
+                }
+                let _ = to.send(reply);
+            }
+            RecorderMsg::Close { summary, then } => {
+                self.close_file(Some(summary));
+                if let Some(e) = then {
+                    self.hub.publish(e);
+                }
+            }
+            RecorderMsg::Shutdown { .. } => {}
+        }
+    }
+
+    fn open(&mut self, id: String, metadata: BTreeMap<String, String>) {
+        self.close_file(None);
+        if let Err(e) = std::fs::create_dir_all(&self.settings.dir) {
+            tracing::error!(
+                "cannot create the recording directory {}: {e}; this trial is not recorded",
+                self.settings.dir.display()
+            );
+            return;
+        }
+        let path = self.settings.dir.join(format!("{id}.mcap"));
+        match TrialFile::create(&path, &metadata) {
+            Ok(f) => {
+                tracing::info!("recording trial to {}", path.display());
+                self.file = Some(f);
+                self.trial_id = Some(id);
+                self.failed = false;
+            }
+            Err(e) => tracing::error!(
+                "cannot create {}: {e}; this trial is not recorded",
+                path.display()
+            ),
+        }
+    }
+
+    fn fail(&mut self, e: &std::io::Error) {
+        if !self.failed {
+            tracing::error!("recording failed: {e}; the rest of this trial is not recorded");
+        }
+        self.failed = true;
+        self.file = None;
+    }
+
+    fn sync(&mut self) {
+        if let Some(f) = self.file.as_mut() {
+            match f.sync() {
+                Ok(()) => {
+                    self.last_flush = Instant::now();
+                    self.last_sync = self.last_flush;
+                }
+                Err(e) => self.fail(&e),
+            }
+        }
+    }
+
+    fn periodic(&mut self) {
+        let now = Instant::now();
+        if now.duration_since(self.last_sync) >= self.settings.fsync_interval {
+            self.sync();
+        } else if now.duration_since(self.last_flush) >= self.settings.flush_interval {
+            if let Some(f) = self.file.as_mut()
+                && let Err(e) = f.flush()
+            {
+                self.fail(&e);
+            }
+            self.last_flush = now;
+        }
+    }
+
+    fn close_file(&mut self, summary: Option<Value>) {
+        let id = self.trial_id.take();
+        if let Some(f) = self.file.take() {
+            let path = f.path().to_path_buf();
+            match f.finish() {
+                Ok(n) => {
+                    tracing::info!("trial recording closed: {} ({n} messages)", path.display())
+                }
+                Err(e) => tracing::error!("closing {}: {e}", path.display()),
+            }
+        }
+        if let (Some(id), Some(summary)) = (id, summary) {
+            let path = self.settings.dir.join(format!("{id}.json"));
+            if let Err(e) = write_json_atomically(&path, &summary) {
+                tracing::error!("writing the trial summary {}: {e}", path.display());
+            }
+        }
+    }
+}
+
+/// Write `value` to `path` through a temporary file, fsync'd and renamed into place.
+pub fn write_json_atomically(path: &Path, value: &Value) -> std::io::Result<()> {
+    use std::io::Write;
+    let tmp = path.with_extension("json.tmp");
+    {
+        let mut f = std::fs::File::create(&tmp)?;
+        serde_json::to_writer_pretty(&mut f, value)?;
+        f.write_all(b"\n")?;
+        f.sync_all()?;
+    }
+    std::fs::rename(&tmp, path)?;
+    if let Some(dir) = path.parent()
+        && let Ok(d) = std::fs::File::open(dir)
+    {
+        let _ = d.sync_all();
+    }
+    Ok(())
+}

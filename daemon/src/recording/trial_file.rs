@@ -1,0 +1,177 @@
+//! One trial's MCAP file: chunked, uncompressed, JSON-schema channels.
+//!
+//! Durability: messages collect in the open chunk in memory; [`TrialFile::flush`] closes the
+//! chunk and hands it to the kernel (what a kill -9 cannot take away), [`TrialFile::sync`]
+//! also fdatasyncs (what a power cut cannot take away). A file cut short anywhere is still
+//! readable up to its last complete chunk by standard linear readers that do not insist on
+//! the closing magic, and [`crate::recording::recover`] rewrites it as a complete, indexed
+//! file.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{BufWriter, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+use crate::recording::topics::Topic;
+
+/// Chunks close at our flushes, not on size, up to this bound.
+const CHUNK_BYTES: u64 = 8 * 1024 * 1024;
+
+/// The writer side handed to mcap: a buffered file.
+#[derive(Debug)]
+struct Sink(BufWriter<File>);
+
+impl Write for Sink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
+}
+
+impl Seek for Sink {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.0.seek(pos)
+    }
+}
+
+pub struct TrialFile {
+    path: PathBuf,
+    writer: Option<mcap::Writer<Sink>>,
+    /// A second descriptor of the same file, for fdatasync.
+    sync_handle: File,
+    channels: BTreeMap<Topic, u16>,
+    sequence: BTreeMap<Topic, u32>,
+    messages: u64,
+    unflushed: bool,
+}
+
+impl std::fmt::Debug for TrialFile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TrialFile")
+            .field("path", &self.path)
+            .field("messages", &self.messages)
+            .finish()
+    }
+}
+
+fn mcap_err(e: mcap::McapError) -> std::io::Error {
+    std::io::Error::other(e)
+}
+
+impl TrialFile {
+    /// Create `path` (refusing to overwrite) with every channel declared.
+    pub fn create(path: &Path, metadata: &BTreeMap<String, String>) -> std::io::Result<Self> {
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(path)?;
+        let sync_handle = file.try_clone()?;
+        let options = mcap::WriteOptions::new()
+            .compression(None)
+            .chunk_size(Some(CHUNK_BYTES))
+            .profile("")
+            .library(concat!("pulsetrackd ", env!("CARGO_PKG_VERSION")));
+        let mut writer = options
+            .create(Sink(BufWriter::with_capacity(256 * 1024, file)))
+            .map_err(mcap_err)?;
+        let mut channels = BTreeMap::new();
+        for t in Topic::ALL {
+            let schema = writer
+                .add_schema(t.schema_name(), "jsonschema", t.schema().as_bytes())
+                .map_err(mcap_err)?;
+            let id = writer
+                .add_channel(schema, t.name(), "json", &BTreeMap::new())
+                .map_err(mcap_err)?;
+            channels.insert(t, id);
+        }
+        writer
+            .write_metadata(&mcap::records::Metadata {
+                name: "trial".into(),
+                metadata: metadata.clone(),
+            })
+            .map_err(mcap_err)?;
+        let mut f = Self {
+            path: path.to_path_buf(),
+            writer: Some(writer),
+            sync_handle,
+            channels,
+            sequence: BTreeMap::new(),
+            messages: 0,
+            unflushed: false,
+        };
+        f.sync()?;
+        Ok(f)
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn messages(&self) -> u64 {
+        self.messages
+    }
+
+    /// Append one message stamped with the daemon clock.
+    pub fn write(&mut self, topic: Topic, t_s: f64, json: &[u8]) -> std::io::Result<()> {
+        let Some(w) = self.writer.as_mut() else {
+            return Err(std::io::Error::other("recording already closed"));
+        };
+        let Some(&channel_id) = self.channels.get(&topic) else {
+            return Err(std::io::Error::other("unknown channel"));
+        };
+        let seq = self.sequence.entry(topic).or_insert(0);
+        *seq = seq.wrapping_add(1);
+        let ns = if t_s.is_finite() && t_s > 0.0 {
+            (t_s * 1e9) as u64
+        } else {
+            0
+        };
+        w.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id,
+                sequence: *seq,
+                log_time: ns,
+                publish_time: ns,
+            },
+            json,
+        )
+        .map_err(mcap_err)?;
+        self.messages += 1;
+        self.unflushed = true;
+        Ok(())
+    }
+
+    /// Close the open chunk and hand everything to the kernel (survives kill -9).
+    pub fn flush(&mut self) -> std::io::Result<()> {
+        if !self.unflushed {
+            return Ok(());
+        }
+        if let Some(w) = self.writer.as_mut() {
+            w.flush().map_err(mcap_err)?;
+        }
+        self.unflushed = false;
+        Ok(())
+    }
+
+    /// Flush and fdatasync (survives a power cut).
+    pub fn sync(&mut self) -> std::io::Result<()> {
+        if let Some(w) = self.writer.as_mut() {
+            w.flush().map_err(mcap_err)?;
+        }
+        self.unflushed = false;
+        self.sync_handle.sync_data()
+    }
+
+    /// Write the summary section and footer, and sync.
+    pub fn finish(mut self) -> std::io::Result<u64> {
+        if let Some(mut w) = self.writer.take() {
+            w.finish().map_err(mcap_err)?;
+            let mut sink = w.into_inner();
+            sink.flush()?;
+        }
+        self.sync_handle.sync_all()?;
+        Ok(self.messages)
+    }
+}

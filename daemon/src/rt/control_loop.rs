@@ -1,0 +1,437 @@
+//! One cycle of the 1 kHz loop: read the joints, drain the tactile array, apply commands,
+//! run the safety layer and the servo, write torques, publish. No allocation and no
+//! blocking on the normal path: ports are non-blocking, channels are bounded and written
+//! with `try_send`, the status goes to a latest-value slot. Errors allocate only when they
+//! fault the loop, which then stops commanding torque.
+
+use std::sync::Arc;
+
+use crossbeam_channel::{Receiver, Sender, TrySendError};
+
+use control::types::{JointState, JointTorques};
+
+use crate::backend::{ArmPort, TactilePort};
+use crate::rt::fault::{Fault, FaultKind};
+use crate::rt::flight_recorder::{CycleRecord, FlightRecorder};
+use crate::rt::link::{
+    ControlCommand, ControlEvent, ControlStatus, LoopMode, LoopSample, Refusal, StampedFrame,
+};
+use crate::rt::safety::{self, SafetyLimits, TorqueGuard};
+use crate::rt::servo::{SensorPose, Servo};
+use crate::slot::Slot;
+
+/// Frames and commands handled per cycle at most (the rest wait for the next cycle).
+const MAX_FRAMES_PER_CYCLE: usize = 32;
+const MAX_COMMANDS_PER_CYCLE: usize = 16;
+
+/// The channels and shared state the loop talks through.
+#[derive(Debug, Clone)]
+pub struct LoopLinks {
+    pub commands: Receiver<ControlCommand>,
+    pub events: Sender<ControlEvent>,
+    pub samples: Sender<LoopSample>,
+    pub status: Arc<Slot<ControlStatus>>,
+    pub flight: FlightRecorder,
+    /// Send the joint state every this many cycles.
+    pub joint_every: u32,
+}
+
+pub struct ControlLoop {
+    arm: Box<dyn ArmPort>,
+    tactile: Box<dyn TactilePort>,
+    servo: Box<dyn Servo>,
+    limits: SafetyLimits,
+    guard: TorqueGuard,
+    links: LoopLinks,
+    dt_s: f64,
+    status: ControlStatus,
+    fault: Option<Fault>,
+    last_pose: Option<SensorPose>,
+    last_seq: u64,
+    silence_until_s: f64,
+}
+
+impl std::fmt::Debug for ControlLoop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ControlLoop")
+            .field("status", &self.status)
+            .field("fault", &self.fault)
+            .finish()
+    }
+}
+
+impl ControlLoop {
+    pub fn new(
+        arm: Box<dyn ArmPort>,
+        tactile: Box<dyn TactilePort>,
+        servo: Box<dyn Servo>,
+        limits: SafetyLimits,
+        rate_hz: f64,
+        links: LoopLinks,
+    ) -> Self {
+        Self {
+            arm,
+            tactile,
+            servo,
+            limits,
+            guard: TorqueGuard::new(),
+            links,
+            dt_s: 1.0 / rate_hz,
+            status: ControlStatus::default(),
+            fault: None,
+            last_pose: None,
+            last_seq: 0,
+            silence_until_s: f64::NEG_INFINITY,
+        }
+    }
+
+    pub fn mode(&self) -> LoopMode {
+        self.status.mode
+    }
+
+    pub fn now_s(&self) -> f64 {
+        self.arm.now_s()
+    }
+
+    pub fn truth(&mut self) -> Option<crate::backend::Truth> {
+        self.arm.truth()
+    }
+
+    /// Run one cycle.
+    pub fn cycle(&mut self) {
+        let now = self.arm.now_s();
+        self.status.t_s = now;
+        self.status.cycle += 1;
+
+        let joints = self.read_joints(now);
+        self.drain_tactile(now);
+        for _ in 0..MAX_COMMANDS_PER_CYCLE {
+            match self.links.commands.try_recv() {
+                Ok(cmd) => self.apply(now, cmd, joints.as_ref()),
+                Err(_) => break,
+            }
+        }
+
+        let torques = if self.status.mode == LoopMode::Enabled {
+            match joints.as_ref().map(|s| self.enabled_step(now, s)) {
+                Some(Ok(t)) => t,
+                Some(Err(f)) => {
+                    self.latch(f);
+                    JointTorques::ZERO
+                }
+                None => {
+                    // read_joints already latched the fault.
+                    JointTorques::ZERO
+                }
+            }
+        } else {
+            JointTorques::ZERO
+        };
+        // Always write: the simulator's clock advances with each write, and a disabled rig
+        // ignores torques.
+        if let Err(e) = self.arm.write_torques(&torques) {
+            tracing::error!("writing torques: {e}");
+            self.latch(Fault::new(FaultKind::Backend, now).noting("write_torques failed"));
+        }
+        self.status.torque_nm = torques.torque_nm;
+        self.publish(now);
+    }
+
+    fn read_joints(&mut self, now: f64) -> Option<JointState> {
+        let state = match self.arm.read_joints() {
+            Ok(s) => s,
+            Err(e) => {
+                if self.status.mode == LoopMode::Enabled {
+                    tracing::error!("reading joints: {e}");
+                    self.latch(Fault::new(FaultKind::Backend, now).noting("read_joints failed"));
+                }
+                return None;
+            }
+        };
+        if let Err(f) = safety::check_joint_data(&self.limits, now, &state) {
+            if self.status.mode == LoopMode::Enabled {
+                self.latch(f);
+            }
+            return None;
+        }
+        self.status.position_rad = state.position_rad;
+        self.status.velocity_rad_s = state.velocity_rad_s;
+        self.last_pose = self.servo.sensor_pose(now, &state.position_rad).ok();
+        if let Some(p) = self.last_pose {
+            self.status.sensor = p.centre;
+            self.status.depth_m = p.depth_m;
+        }
+        Some(state)
+    }
+
+    fn drain_tactile(&mut self, now: f64) {
+        for _ in 0..MAX_FRAMES_PER_CYCLE {
+            let frame = match self.tactile.poll_frame() {
+                Ok(Some(f)) => f,
+                Ok(None) => break,
+                Err(e) => {
+                    // A stream error is judged by staleness: the frames stop arriving.
+                    tracing::warn!("tactile port: {e}");
+                    break;
+                }
+            };
+            if now < self.silence_until_s {
+                continue;
+            }
+            if !frame.is_finite() {
+                if self.status.mode == LoopMode::Enabled {
+                    self.latch(Fault::new(FaultKind::NonFiniteTactile, now));
+                }
+                continue;
+            }
+            let contact_n: f64 = frame.force_n.iter().sum();
+            self.status.tactile_t_s = frame.t_s;
+            self.status.contact_n = contact_n;
+            self.status.tactile_frames += 1;
+            let stamped = StampedFrame {
+                frame,
+                sensor: self.status.sensor,
+                settled: self.status.settled,
+                motion_seq: self.status.motion_seq,
+                contact_n,
+            };
+            if let Err(TrySendError::Full(_)) =
+                self.links.samples.try_send(LoopSample::Frame(stamped))
+            {
+                self.status.dropped += 1;
+            }
+        }
+    }
+
+    fn enabled_step(&mut self, now: f64, state: &JointState) -> Result<JointTorques, Fault> {
+        safety::check_joint_limits(&self.limits, now, state)?;
+        safety::check_tactile(
+            &self.limits,
+            now,
+            self.status.tactile_t_s,
+            self.status.contact_n,
+        )?;
+        let pose = self
+            .last_pose
+            .ok_or_else(|| Fault::new(FaultKind::Kinematics, now).noting("sensor pose unknown"))?;
+        let step = self.servo.step(now, state, self.dt_s)?;
+        safety::check_pose(&self.limits, now, &pose, &step)?;
+        let torques = self
+            .guard
+            .apply(&self.limits, now, self.dt_s, &step.torques)?;
+        self.status.setpoint = step.setpoint;
+        self.status.setpoint_rad = step.setpoint_rad;
+        self.status.settled = step.settled;
+        Ok(torques)
+    }
+
+    fn apply(&mut self, now: f64, cmd: ControlCommand, joints: Option<&JointState>) {
+        let seq = cmd.seq();
+        self.last_seq = seq;
+        let outcome = match cmd {
+            ControlCommand::Estop { .. } => {
+                if self.fault.is_none() {
+                    self.latch(Fault::new(FaultKind::Estop, now));
+                }
+                Ok(())
+            }
+            ControlCommand::SilenceTactile { duration_s, .. } => {
+                self.silence_until_s = now + duration_s.max(0.0);
+                Ok(())
+            }
+            ControlCommand::Reset { .. } => self.reset(now, joints),
+            _ if self.status.mode == LoopMode::Faulted => Err(Refusal::Faulted),
+            ControlCommand::Enable { .. } => self.enable(now, joints),
+            ControlCommand::Disable { .. } => {
+                self.power_off();
+                self.status.mode = LoopMode::Disabled;
+                Ok(())
+            }
+            ControlCommand::Hold { seq } => {
+                if self.status.mode != LoopMode::Enabled {
+                    Err(Refusal::NotEnabled)
+                } else {
+                    self.servo.hold(now);
+                    self.status.motion_seq = seq;
+                    self.status.settled = false;
+                    Ok(())
+                }
+            }
+            ControlCommand::MoveTo {
+                seq,
+                target,
+                speed_m_s,
+            } => {
+                if self.status.mode != LoopMode::Enabled {
+                    Err(Refusal::NotEnabled)
+                } else if !self.limits.in_workspace(target.x_m, target.z_m) {
+                    Err(Refusal::Unreachable(FaultKind::Workspace))
+                } else {
+                    self.servo.move_to(now, target, speed_m_s).map(|()| {
+                        self.status.motion_seq = seq;
+                        self.status.settled = false;
+                    })
+                }
+            }
+        };
+        let event = match outcome {
+            Ok(()) => ControlEvent::Done { seq, t_s: now },
+            Err(why) => ControlEvent::Refused { seq, t_s: now, why },
+        };
+        self.send_event(event);
+    }
+
+    fn enable(&mut self, now: f64, joints: Option<&JointState>) -> Result<(), Refusal> {
+        if self.status.mode == LoopMode::Enabled {
+            return Err(Refusal::AlreadyEnabled);
+        }
+        let state = joints.ok_or(Refusal::CauseStillPresent(FaultKind::JointStale))?;
+        safety::check_joint_limits(&self.limits, now, state)
+            .map_err(|f| Refusal::CauseStillPresent(f.kind))?;
+        safety::check_tactile(
+            &self.limits,
+            now,
+            self.status.tactile_t_s,
+            self.status.contact_n,
+        )
+        .map_err(|f| Refusal::CauseStillPresent(f.kind))?;
+        let pose = self
+            .last_pose
+            .ok_or(Refusal::CauseStillPresent(FaultKind::Kinematics))?;
+        if !(self.limits.min_depth_m..=self.limits.max_depth_m).contains(&pose.depth_m) {
+            return Err(Refusal::CauseStillPresent(FaultKind::Depth));
+        }
+        self.servo
+            .hold_here(now, state)
+            .map_err(|f| Refusal::CauseStillPresent(f.kind))?;
+        if let Err(e) = self.arm.enable() {
+            tracing::error!("enabling the arm: {e}");
+            return Err(Refusal::Backend);
+        }
+        self.guard.reset();
+        self.status.mode = LoopMode::Enabled;
+        self.status.setpoint = pose.centre;
+        self.status.setpoint_rad = state.position_rad;
+        self.status.settled = true;
+        Ok(())
+    }
+
+    fn reset(&mut self, now: f64, joints: Option<&JointState>) -> Result<(), Refusal> {
+        if self.fault.is_none() {
+            return Err(Refusal::NoFault);
+        }
+        let state = joints.ok_or(Refusal::CauseStillPresent(FaultKind::JointStale))?;
+        self.servo
+            .hold_here(now, state)
+            .map_err(|f| Refusal::CauseStillPresent(f.kind))?;
+        self.guard.reset();
+        self.fault = None;
+        self.status.mode = LoopMode::Disabled;
+        self.status.settled = true;
+        self.links.flight.thaw();
+        Ok(())
+    }
+
+    fn power_off(&mut self) {
+        if let Err(e) = self.arm.disable() {
+            tracing::error!("disabling the arm: {e}");
+        }
+        self.guard.reset();
+    }
+
+    /// Latch a fault: power off, drop queued commands, freeze the flight recorder, report.
+    fn latch(&mut self, fault: Fault) {
+        if self.fault.is_some() {
+            return;
+        }
+        self.power_off();
+        self.status.mode = LoopMode::Faulted;
+        self.fault = Some(fault);
+        let mut dropped = 0;
+        while let Ok(cmd) = self.links.commands.try_recv() {
+            dropped += 1;
+            self.send_event(ControlEvent::Refused {
+                seq: cmd.seq(),
+                t_s: fault.t_s,
+                why: Refusal::Faulted,
+            });
+        }
+        let _ = dropped;
+        self.record_flight(fault.t_s);
+        self.links.flight.freeze();
+        self.send_event(ControlEvent::Faulted(fault));
+    }
+
+    /// Latch a fault from outside the cycle (the deadline monitor).
+    pub fn latch_external(&mut self, fault: Fault) {
+        self.latch(fault);
+    }
+
+    fn send_event(&mut self, e: ControlEvent) {
+        if self.links.events.try_send(e).is_err() {
+            self.status.dropped += 1;
+        }
+    }
+
+    fn record_flight(&self, now: f64) {
+        let s = &self.status;
+        self.links.flight.record(&CycleRecord {
+            t_s: now,
+            cycle: s.cycle,
+            mode: s.mode as u8,
+            position_rad: s.position_rad,
+            velocity_rad_s: s.velocity_rad_s,
+            setpoint_rad: s.setpoint_rad,
+            torque_nm: s.torque_nm,
+            sensor_x_m: s.sensor.x_m,
+            sensor_z_m: s.sensor.z_m,
+            setpoint_x_m: s.setpoint.x_m,
+            setpoint_z_m: s.setpoint.z_m,
+            contact_n: s.contact_n,
+            tactile_age_s: now - s.tactile_t_s,
+            command_seq: self.last_seq,
+        });
+    }
+
+    fn publish(&mut self, now: f64) {
+        self.record_flight(now);
+        self.links.status.write(&self.status);
+        if self
+            .status
+            .cycle
+            .is_multiple_of(u64::from(self.links.joint_every.max(1)))
+        {
+            let sample = LoopSample::Joints {
+                status: self.status,
+                truth: self.arm.truth(),
+            };
+            if let Err(TrySendError::Full(_)) = self.links.samples.try_send(sample) {
+                self.status.dropped += 1;
+            }
+        }
+    }
+
+    /// Send an event from the loop's thread (timing reports); false if it had to be dropped.
+    pub fn report(&mut self, e: ControlEvent) -> bool {
+        let ok = self.links.events.try_send(e).is_ok();
+        if !ok {
+            self.status.dropped += 1;
+        }
+        ok
+    }
+
+    pub fn set_overruns(&mut self, overruns: u64) {
+        self.status.overruns = overruns;
+    }
+
+    /// Power off on shutdown and report.
+    pub fn shut_down(&mut self) {
+        if self.status.mode == LoopMode::Enabled {
+            self.power_off();
+            self.status.mode = LoopMode::Disabled;
+        }
+        let now = self.arm.now_s();
+        self.publish(now);
+        self.send_event(ControlEvent::Stopped { t_s: now });
+    }
+}

@@ -1,0 +1,229 @@
+//! The servo built from the control core: `ArmModel` (joints <-> sensor centre),
+//! `MotionPlanner` (straight-line setpoints at the contact height), `PdController` with
+//! `PhantomGravity`. Every control-core error becomes a named fault with its numbers.
+
+use config::Config;
+use control::frames::SurfacePoint;
+use control::kinematics::{ArmModel, KinematicsError};
+use control::motion::MotionPlanner;
+use control::pd::{GravityModel, PdController, PdFault, PhantomGravity};
+use control::types::{JointState, Joints};
+use nalgebra::{Point3, Vector3};
+
+use crate::rt::fault::{Fault, FaultKind};
+use crate::rt::link::Refusal;
+use crate::rt::servo::{SensorPose, Servo, ServoStep};
+use crate::supervisor::TrackerFactory;
+
+#[derive(Debug, Clone)]
+pub struct CoreServo {
+    arm: ArmModel,
+    planner: MotionPlanner,
+    pd: PdController,
+    gravity: PhantomGravity,
+}
+
+pub fn build(c: &Config) -> Result<Box<dyn Servo>, String> {
+    Ok(Box::new(CoreServo::new(c)?))
+}
+
+impl CoreServo {
+    pub fn new(c: &Config) -> Result<Self, String> {
+        Ok(Self {
+            arm: c
+                .robot
+                .arm_model()
+                .map_err(|e| format!("robot geometry: {e}"))?,
+            planner: MotionPlanner::new(c.control.motion)
+                .map_err(|e| format!("control.motion: {e}"))?,
+            pd: PdController::new(c.control.pd).map_err(|e| format!("control.pd: {e}"))?,
+            gravity: PhantomGravity::new(&c.robot.link_masses),
+        })
+    }
+}
+
+/// A kinematic failure as a fault kind with its value and limit.
+pub fn kinematic_fault(e: &KinematicsError, t_s: f64) -> Fault {
+    match *e {
+        KinematicsError::JointLimit {
+            joint,
+            value_rad,
+            min_rad,
+            max_rad,
+        } => Fault::new(FaultKind::JointLimit, t_s)
+            .on_axis(joint)
+            .with_values(
+                value_rad,
+                if value_rad < min_rad {
+                    min_rad
+                } else {
+                    max_rad
+                },
+            ),
+        KinematicsError::CouplingLimit {
+            value_rad,
+            min_rad,
+            max_rad,
+        } => Fault::new(FaultKind::CouplingLimit, t_s).with_values(
+            value_rad,
+            if value_rad < min_rad {
+                min_rad
+            } else {
+                max_rad
+            },
+        ),
+        KinematicsError::DepthOutOfRange {
+            depth_m,
+            min_m,
+            max_m,
+        } => Fault::new(FaultKind::Depth, t_s)
+            .with_values(depth_m, if depth_m < min_m { min_m } else { max_m }),
+        KinematicsError::OutOfReach {
+            distance_m, max_m, ..
+        } => Fault::new(FaultKind::Workspace, t_s)
+            .with_values(distance_m, max_m)
+            .noting("out of the arm's reach"),
+        KinematicsError::NearSingular {
+            sigma_min_m_per_rad,
+            limit_m_per_rad,
+        } => Fault::new(FaultKind::Kinematics, t_s)
+            .with_values(sigma_min_m_per_rad, limit_m_per_rad)
+            .noting("near a singular pose"),
+        KinematicsError::AtPivot { what, distance_m } => Fault::new(FaultKind::Depth, t_s)
+            .with_values(distance_m, 0.0)
+            .noting(what),
+        KinematicsError::Singular { what }
+        | KinematicsError::NonFinite { what }
+        | KinematicsError::InvalidGeometry { what } => {
+            Fault::new(FaultKind::Kinematics, t_s).noting(what)
+        }
+        #[allow(unreachable_patterns)]
+        _ => Fault::new(FaultKind::Kinematics, t_s),
+    }
+}
+
+fn pd_fault(e: &PdFault, t_s: f64) -> Fault {
+    match *e {
+        PdFault::TrackingError {
+            joint,
+            error_rad,
+            limit_rad,
+        } => Fault::new(FaultKind::TrackingError, t_s)
+            .on_axis(joint)
+            .with_values(error_rad, limit_rad),
+        PdFault::NonFinite { what } => Fault::new(FaultKind::NonFiniteCommand, t_s).noting(what),
+        PdFault::InvalidTimeStep { dt_s } => Fault::new(FaultKind::NonFiniteCommand, t_s)
+            .with_values(dt_s, 0.0)
+            .noting("invalid time step"),
+        PdFault::InvalidParams { what } => Fault::new(FaultKind::Kinematics, t_s).noting(what),
+        #[allow(unreachable_patterns)]
+        _ => Fault::new(FaultKind::NonFiniteCommand, t_s),
+    }
+}
+
+impl CoreServo {
+    fn believed_speed(&self, state: &JointState) -> Result<f64, KinematicsError> {
+        let j = self.arm.sensor_jacobian(&state.position_rad)?;
+        let v = j * Vector3::from(state.velocity_rad_s);
+        Ok(v.x.hypot(v.z))
+    }
+
+    /// Where the setpoint is now (or, before any, where the sensor is).
+    fn setpoint_point(&self, now_s: f64) -> Option<Point3<f64>> {
+        self.planner.setpoint(now_s).map(|(p, _)| p)
+    }
+}
+
+impl Servo for CoreServo {
+    fn sensor_pose(&self, now_s: f64, q: &Joints) -> Result<SensorPose, Fault> {
+        let p = self
+            .arm
+            .sensor_from_joints(q)
+            .map_err(|e| kinematic_fault(&e, now_s))?;
+        let depth_m = self
+            .arm
+            .depth_m(q)
+            .map_err(|e| kinematic_fault(&e, now_s))?;
+        Ok(SensorPose {
+            centre: SurfacePoint::new(p.x, p.z),
+            depth_m,
+        })
+    }
+
+    fn hold_here(&mut self, now_s: f64, state: &JointState) -> Result<(), Fault> {
+        let p = self
+            .arm
+            .sensor_from_joints(&state.position_rad)
+            .map_err(|e| kinematic_fault(&e, now_s))?;
+        self.planner
+            .hold_point(p, now_s)
+            .map_err(|_| Fault::new(FaultKind::Kinematics, now_s).noting("hold point"))?;
+        self.pd.reset();
+        Ok(())
+    }
+
+    fn move_to(&mut self, now_s: f64, target: SurfacePoint, speed_m_s: f64) -> Result<(), Refusal> {
+        let Some(from) = self.setpoint_point(now_s) else {
+            return Err(Refusal::NotEnabled);
+        };
+        let end = self.planner.contact_point(&target);
+        // The end must be reachable with every guard; so must the middle of the line (the
+        // workspace is convex enough that this catches a line through the pivot's cone).
+        let mid = Point3::from((from.coords + end.coords) / 2.0);
+        for p in [end, mid] {
+            if let Err(e) = self.arm.joints_for_sensor(&p) {
+                return Err(Refusal::Unreachable(kinematic_fault(&e, now_s).kind));
+            }
+        }
+        self.planner
+            .start_from_point(from, target, speed_m_s, now_s)
+            .map_err(|_| Refusal::Unreachable(FaultKind::NonFiniteCommand))
+    }
+
+    fn hold(&mut self, now_s: f64) {
+        if let Some(p) = self.setpoint_point(now_s) {
+            let _ = self.planner.hold_point(p, now_s);
+        }
+    }
+
+    fn step(&mut self, now_s: f64, state: &JointState, dt_s: f64) -> Result<ServoStep, Fault> {
+        let (p, v) = self
+            .planner
+            .setpoint(now_s)
+            .ok_or_else(|| Fault::new(FaultKind::Kinematics, now_s).noting("no motion setpoint"))?;
+        let js = self
+            .arm
+            .joint_setpoint(&p, &v)
+            .map_err(|e| kinematic_fault(&e, now_s))?;
+        let g = self.gravity.torque_nm(&state.position_rad);
+        let torques = self
+            .pd
+            .step(&js, state, &g, dt_s)
+            .map_err(|e| pd_fault(&e, now_s))?;
+        let believed = self
+            .arm
+            .surface_point(&state.position_rad)
+            .map_err(|e| kinematic_fault(&e, now_s))?;
+        let speed = self
+            .believed_speed(state)
+            .map_err(|e| kinematic_fault(&e, now_s))?;
+        Ok(ServoStep {
+            torques,
+            setpoint: SurfacePoint::new(p.x, p.z),
+            setpoint_rad: js.position_rad,
+            settled: self.planner.settled(believed, speed, now_s),
+        })
+    }
+}
+
+/// A fresh tracker per trial, by the configured name. The name and parameters are checked
+/// once here, so a bad config fails at start-up rather than at the first mark.
+pub fn tracker_factory(c: &Config) -> Result<TrackerFactory, String> {
+    let name = c.tracker.name.clone();
+    let params = c.tracker.params;
+    let sensor = c.sensor;
+    control::tracker::build(&name, &params, &sensor).map_err(|e| format!("tracker: {e}"))?;
+    Ok(Box::new(move || {
+        control::tracker::build(&name, &params, &sensor).map_err(|e| e.to_string())
+    }))
+}

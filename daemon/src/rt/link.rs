@@ -1,0 +1,268 @@
+//! What travels between the control thread and the rest of the daemon: commands in, events
+//! and stamped tactile frames out (bounded crossbeam channels, never blocking the loop), and
+//! the loop's status in a latest-value slot.
+
+use control::frames::SurfacePoint;
+use control::types::{JOINTS, Joints, TactileFrame};
+
+use crate::rt::fault::{Fault, FaultKind};
+use crate::rt::period_stats::PeriodSummary;
+use crate::slot::{Packed, Packer, SLOT_WORDS, Unpacker};
+
+/// A request to the loop. Every command carries a sequence number that its answer repeats.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ControlCommand {
+    /// Power the arm and hold exactly where it is (setpoint := measured).
+    Enable { seq: u64 },
+    /// Remove power.
+    Disable { seq: u64 },
+    /// Come to rest at the current setpoint.
+    Hold { seq: u64 },
+    /// A straight move of the sensor centre, tissue frame.
+    MoveTo {
+        seq: u64,
+        target: SurfacePoint,
+        speed_m_s: f64,
+    },
+    /// Latch an `estop` fault: power off at once.
+    Estop { seq: u64 },
+    /// Clear a latched fault; the arm stays unpowered with its setpoint at the measured pose.
+    Reset { seq: u64 },
+    /// Test hook: ignore tactile frames for this long (daemon clock), as if the stream died.
+    SilenceTactile { seq: u64, duration_s: f64 },
+}
+
+impl ControlCommand {
+    pub fn seq(&self) -> u64 {
+        match *self {
+            ControlCommand::Enable { seq }
+            | ControlCommand::Disable { seq }
+            | ControlCommand::Hold { seq }
+            | ControlCommand::MoveTo { seq, .. }
+            | ControlCommand::Estop { seq }
+            | ControlCommand::Reset { seq }
+            | ControlCommand::SilenceTactile { seq, .. } => seq,
+        }
+    }
+}
+
+/// Why the loop refused a command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Refusal {
+    /// A fault is latched: reset first.
+    Faulted,
+    /// The arm is not powered.
+    NotEnabled,
+    /// Already powered.
+    AlreadyEnabled,
+    /// Nothing latched to reset.
+    NoFault,
+    /// The fault's cause persists (stale or non-finite data).
+    CauseStillPresent(FaultKind),
+    /// The target cannot be reached or is outside an allowed range.
+    Unreachable(FaultKind),
+    /// The backend refused.
+    Backend,
+}
+
+impl Refusal {
+    pub fn describe(&self) -> String {
+        match self {
+            Refusal::Faulted => "a fault is latched: reset first".into(),
+            Refusal::NotEnabled => "the arm is not enabled".into(),
+            Refusal::AlreadyEnabled => "the arm is already enabled".into(),
+            Refusal::NoFault => "no fault is latched".into(),
+            Refusal::CauseStillPresent(k) => {
+                format!(
+                    "the cause is still present: {}",
+                    k.as_str().replace('_', " ")
+                )
+            }
+            Refusal::Unreachable(k) => {
+                format!("target not allowed: {} limit", k.as_str().replace('_', " "))
+            }
+            Refusal::Backend => "the backend refused (see the daemon's log)".into(),
+        }
+    }
+}
+
+/// What the loop reports.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ControlEvent {
+    /// A command was carried out.
+    Done { seq: u64, t_s: f64 },
+    /// A command was refused; nothing changed.
+    Refused { seq: u64, t_s: f64, why: Refusal },
+    /// A fault was latched: power is off, motion dropped.
+    Faulted(Fault),
+    /// The loop's rate-limited timing report.
+    Timing { t_s: f64, summary: PeriodSummary },
+    /// The loop has stopped (shutdown).
+    Stopped { t_s: f64 },
+}
+
+/// A tactile frame stamped by the loop with what the robot believed at that instant.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StampedFrame {
+    pub frame: TactileFrame,
+    /// Believed sensor centre (encoders + fixed-pivot model), tissue frame.
+    pub sensor: SurfacePoint,
+    /// The motion with this sequence number has settled.
+    pub settled: bool,
+    pub motion_seq: u64,
+    /// Sum of the element forces, N.
+    pub contact_n: f64,
+}
+
+/// Data the loop streams out: every tactile frame, and the joint state every few cycles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LoopSample {
+    Frame(StampedFrame),
+    Joints {
+        status: ControlStatus,
+        truth: Option<crate::backend::Truth>,
+    },
+}
+
+/// Power state of the loop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LoopMode {
+    Disabled = 0,
+    Enabled = 1,
+    Faulted = 2,
+}
+
+/// The loop's latest state, published every cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControlStatus {
+    pub t_s: f64,
+    pub cycle: u64,
+    pub mode: LoopMode,
+    pub position_rad: Joints,
+    pub velocity_rad_s: Joints,
+    pub torque_nm: Joints,
+    pub setpoint_rad: Joints,
+    pub sensor: SurfacePoint,
+    pub setpoint: SurfacePoint,
+    pub depth_m: f64,
+    pub settled: bool,
+    pub motion_seq: u64,
+    /// Newest tactile frame time and its total force.
+    pub tactile_t_s: f64,
+    pub contact_n: f64,
+    pub tactile_frames: u64,
+    pub overruns: u64,
+    /// Frames or events the loop had to drop because a consumer lagged.
+    pub dropped: u64,
+}
+
+impl Default for ControlStatus {
+    fn default() -> Self {
+        Self {
+            t_s: 0.0,
+            cycle: 0,
+            mode: LoopMode::Disabled,
+            position_rad: [0.0; JOINTS],
+            velocity_rad_s: [0.0; JOINTS],
+            torque_nm: [0.0; JOINTS],
+            setpoint_rad: [0.0; JOINTS],
+            sensor: SurfacePoint::new(f64::NAN, f64::NAN),
+            // No setpoint until the arm is first enabled.
+            setpoint: SurfacePoint::new(f64::NAN, f64::NAN),
+            depth_m: f64::NAN,
+            settled: true,
+            motion_seq: 0,
+            tactile_t_s: f64::NAN,
+            contact_n: f64::NAN,
+            tactile_frames: 0,
+            overruns: 0,
+            dropped: 0,
+        }
+    }
+}
+
+impl Packed for ControlStatus {
+    fn pack(&self, out: &mut [u64; SLOT_WORDS]) {
+        let mut p = Packer::new(out);
+        p.f64(self.t_s)
+            .u64(self.cycle)
+            .u64(self.mode as u64)
+            .f64s(&self.position_rad)
+            .f64s(&self.velocity_rad_s)
+            .f64s(&self.torque_nm)
+            .f64s(&self.setpoint_rad)
+            .f64(self.sensor.x_m)
+            .f64(self.sensor.z_m)
+            .f64(self.setpoint.x_m)
+            .f64(self.setpoint.z_m)
+            .f64(self.depth_m)
+            .u64(u64::from(self.settled))
+            .u64(self.motion_seq)
+            .f64(self.tactile_t_s)
+            .f64(self.contact_n)
+            .u64(self.tactile_frames)
+            .u64(self.overruns)
+            .u64(self.dropped);
+    }
+
+    fn unpack(words: &[u64; SLOT_WORDS]) -> Self {
+        let mut u = Unpacker::new(words);
+        let t_s = u.f64();
+        let cycle = u.u64();
+        let mode = match u.u64() {
+            1 => LoopMode::Enabled,
+            2 => LoopMode::Faulted,
+            _ => LoopMode::Disabled,
+        };
+        Self {
+            t_s,
+            cycle,
+            mode,
+            position_rad: u.f64s(),
+            velocity_rad_s: u.f64s(),
+            torque_nm: u.f64s(),
+            setpoint_rad: u.f64s(),
+            sensor: SurfacePoint::new(u.f64(), u.f64()),
+            setpoint: SurfacePoint::new(u.f64(), u.f64()),
+            depth_m: u.f64(),
+            settled: u.u64() != 0,
+            motion_seq: u.u64(),
+            tactile_t_s: u.f64(),
+            contact_n: u.f64(),
+            tactile_frames: u.u64(),
+            overruns: u.u64(),
+            dropped: u.u64(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn status_round_trips_through_slot_words() {
+        let s = ControlStatus {
+            t_s: 12.5,
+            cycle: 99,
+            mode: LoopMode::Faulted,
+            position_rad: [0.1, 0.2, 0.3],
+            velocity_rad_s: [1.0, -1.0, 0.5],
+            torque_nm: [0.01, 0.02, -0.03],
+            setpoint_rad: [0.11, 0.21, 0.31],
+            sensor: SurfacePoint::new(0.01, -0.02),
+            setpoint: SurfacePoint::new(0.03, 0.04),
+            depth_m: 0.3,
+            settled: false,
+            motion_seq: 17,
+            tactile_t_s: 12.49,
+            contact_n: 2.5,
+            tactile_frames: 1249,
+            overruns: 3,
+            dropped: 1,
+        };
+        let mut w = [0u64; SLOT_WORDS];
+        s.pack(&mut w);
+        assert_eq!(ControlStatus::unpack(&w), s);
+    }
+}

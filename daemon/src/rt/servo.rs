@@ -1,0 +1,49 @@
+//! The servo seam: what the loop asks of the control core each cycle (kinematics, motion
+//! setpoints, the PD law). [`crate::rt::core_servo`] implements it with the control crate's
+//! `ArmModel`, `MotionPlanner` and `PdController`; tests may substitute their own.
+
+use control::frames::SurfacePoint;
+use control::types::{JointState, JointTorques, Joints};
+
+use crate::rt::fault::Fault;
+use crate::rt::link::Refusal;
+
+/// Where the robot believes the sensor is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensorPose {
+    /// Centre of the element line, tissue frame.
+    pub centre: SurfacePoint,
+    /// Insertion depth below the pivot, m.
+    pub depth_m: f64,
+}
+
+/// One cycle's output of the servo.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ServoStep {
+    pub torques: JointTorques,
+    /// The motion setpoint of the sensor centre this cycle, tissue frame.
+    pub setpoint: SurfacePoint,
+    /// The joint angles the PD law is steering to.
+    pub setpoint_rad: Joints,
+    /// The current motion has arrived and come to rest.
+    pub settled: bool,
+}
+
+pub trait Servo: Send {
+    /// The believed sensor pose for joint angles (encoders + fixed-pivot model).
+    fn sensor_pose(&self, now_s: f64, position_rad: &Joints) -> Result<SensorPose, Fault>;
+
+    /// Hold exactly at the measured state: the setpoint becomes the measured pose and the
+    /// controller forgets its history, so powering up never jumps.
+    fn hold_here(&mut self, now_s: f64, state: &JointState) -> Result<(), Fault>;
+
+    /// Start a straight move of the sensor centre. Refused, with nothing changed, when the
+    /// target is out of reach or outside a limit.
+    fn move_to(&mut self, now_s: f64, target: SurfacePoint, speed_m_s: f64) -> Result<(), Refusal>;
+
+    /// Come to rest as soon as the motion limits allow.
+    fn hold(&mut self, now_s: f64);
+
+    /// Torques for this cycle. Called only while the arm is powered.
+    fn step(&mut self, now_s: f64, state: &JointState, dt_s: f64) -> Result<ServoStep, Fault>;
+}

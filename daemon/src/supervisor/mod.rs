@@ -1,0 +1,1054 @@
+//! The supervisor: the operating state machine and the tracker, on one thread.
+//!
+//! It takes console requests, the loop's events and the stamped tactile frames, decides
+//! what is allowed in the current state, drives the tracker through a trial, and sends
+//! motion commands to the loop. Every reply and stream event leaves through the recorder, so
+//! that what is acknowledged is on disk first.
+
+mod report;
+pub mod state;
+pub mod trial;
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::{Receiver, Sender, select, tick};
+use serde_json::{Value, json};
+
+use control::frames::SurfacePoint;
+use control::tracker::{MotionCommand, TrackLimit, Tracker, TrackerEvent, TrackerInput};
+
+use crate::backend::{BackendInfo, PathJudge, Truth};
+use crate::console::hub::{Responder, StreamEvent};
+use crate::console::protocol::{DebugAction, ErrorCode, Stream, Verb, error_reply, ok_reply};
+use crate::recording::naming::utc_stamp;
+use crate::recording::recorder::RecorderMsg;
+use crate::recording::topics::Topic;
+use crate::rt::fault::Fault;
+use crate::rt::flight_recorder::FlightRecorder;
+use crate::rt::link::{
+    ControlCommand, ControlEvent, ControlStatus, LoopSample, Refusal, StampedFrame,
+};
+use crate::rt::period_stats::PeriodSummary;
+use crate::slot::Slot;
+use state::{Context, OpState};
+use trial::{Trial, TrialEnd};
+
+/// Requests from the console and the daemon itself.
+pub enum SupervisorInput {
+    Request {
+        id: u64,
+        verb: Verb,
+        reply: Responder,
+    },
+    /// A controlled stop: end any trial, come to rest, power off, close the recording.
+    Shutdown { done: Sender<()> },
+}
+
+impl std::fmt::Debug for SupervisorInput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SupervisorInput::Request { id, verb, .. } => write!(f, "Request({id}, {verb:?})"),
+            SupervisorInput::Shutdown { .. } => f.write_str("Shutdown"),
+        }
+    }
+}
+
+/// Builds a fresh tracker for each trial.
+pub type TrackerFactory = Box<dyn Fn() -> Result<Box<dyn Tracker>, String> + Send>;
+
+/// The supervisor's settings, from config.
+#[derive(Debug, Clone)]
+pub struct SupervisorSettings {
+    pub tracker_name: String,
+    pub home: SurfacePoint,
+    pub move_speed_m_s: f64,
+    pub max_speed_m_s: f64,
+    pub workspace_x_m: [f64; 2],
+    pub workspace_z_m: [f64; 2],
+    pub debug_hooks: bool,
+    pub recording_dir: PathBuf,
+    /// Wall time the loop has to answer a command.
+    pub command_timeout: Duration,
+    /// Wall time a controlled stop may take before power is cut.
+    pub stop_timeout: Duration,
+    /// Context recorded with every trial (config file, backend, scene).
+    pub trial_context: Value,
+}
+
+/// The channels the supervisor works with.
+#[derive(Debug)]
+pub struct SupervisorLinks {
+    pub inputs: Receiver<SupervisorInput>,
+    pub events: Receiver<ControlEvent>,
+    pub samples: Receiver<LoopSample>,
+    pub commands: Sender<ControlCommand>,
+    pub recorder: Sender<RecorderMsg>,
+    pub status: Arc<Slot<ControlStatus>>,
+    pub flight: FlightRecorder,
+    /// Incremented on every supervisor tick: the watchdog's proof of life.
+    pub heartbeat: Arc<AtomicU64>,
+    /// The operating state for readers outside the supervisor (the console's hello).
+    pub shared_state: Arc<AtomicU8>,
+}
+
+/// What a command sent to the loop was for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Purpose {
+    Enable,
+    Disable,
+    Reset,
+    Estop,
+    ManualMove,
+    Pause,
+    StopHold,
+    TrackerMove,
+    TrackerHold,
+    Debug,
+    ShutdownHold,
+}
+
+struct Pending {
+    seq: u64,
+    purpose: Purpose,
+    reply: Option<(u64, Responder)>,
+    sent: Instant,
+}
+
+struct Shutdown {
+    done: Sender<()>,
+    deadline: Instant,
+    hold_seq: Option<u64>,
+}
+
+pub struct Supervisor {
+    s: SupervisorSettings,
+    links: SupervisorLinks,
+    info: BackendInfo,
+    judge: Option<Box<dyn PathJudge>>,
+    factory: TrackerFactory,
+    state: OpState,
+    fault: Option<(Fault, Option<PathBuf>)>,
+    tracker: Option<Box<dyn Tracker>>,
+    trial: Option<Trial>,
+    last_trial: Option<Value>,
+    next_seq: u64,
+    /// The motion whose settling the tracker and the manual moves wait for.
+    motion_seq: u64,
+    tracker_target: Option<SurfacePoint>,
+    pending: Vec<Pending>,
+    timing: Option<PeriodSummary>,
+    overruns_reported: u64,
+    truth: Option<Truth>,
+    frames_seen: u64,
+    shutdown: Option<Shutdown>,
+    last_state_beat: Instant,
+}
+
+impl std::fmt::Debug for Supervisor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Supervisor")
+            .field("state", &self.state)
+            .finish()
+    }
+}
+
+pub fn state_code(s: OpState) -> u8 {
+    s as u8
+}
+
+pub fn state_from_code(c: u8) -> OpState {
+    use OpState::*;
+    [
+        Disabled, Holding, Moving, Seeding, Tracking, Paused, Done, Fault,
+    ]
+    .get(usize::from(c))
+    .copied()
+    .unwrap_or(Disabled)
+}
+
+impl Supervisor {
+    pub fn new(
+        s: SupervisorSettings,
+        links: SupervisorLinks,
+        info: BackendInfo,
+        judge: Option<Box<dyn PathJudge>>,
+        factory: TrackerFactory,
+    ) -> Self {
+        links
+            .shared_state
+            .store(state_code(OpState::Disabled), Ordering::Release);
+        Self {
+            s,
+            links,
+            info,
+            judge,
+            factory,
+            state: OpState::Disabled,
+            fault: None,
+            tracker: None,
+            trial: None,
+            last_trial: None,
+            next_seq: 1,
+            motion_seq: 0,
+            tracker_target: None,
+            pending: Vec::new(),
+            timing: None,
+            overruns_reported: 0,
+            truth: None,
+            frames_seen: 0,
+            shutdown: None,
+            last_state_beat: Instant::now(),
+        }
+    }
+
+    /// Run until a shutdown completes or the inputs close.
+    pub fn run(mut self) {
+        let ticker = tick(Duration::from_millis(50));
+        let mut inputs = self.links.inputs.clone();
+        loop {
+            select! {
+                recv(inputs) -> m => match m {
+                    Ok(SupervisorInput::Request { id, verb, reply }) => self.on_request(id, verb, reply),
+                    Ok(SupervisorInput::Shutdown { done }) => self.begin_shutdown(done),
+                    Err(_) => {
+                        // Every sender is gone (the daemon was dropped): stop as on SIGTERM,
+                        // and stop listening to the closed channel.
+                        inputs = crossbeam_channel::never();
+                        let (tx, _rx) = crossbeam_channel::bounded(1);
+                        self.begin_shutdown(tx);
+                    }
+                },
+                recv(self.links.events) -> e => if let Ok(e) = e { self.on_event(e) },
+                recv(self.links.samples) -> s => if let Ok(s) = s { self.on_sample(s) },
+                recv(ticker) -> _ => self.on_tick(),
+            }
+            if self.finish_shutdown_if_ready() {
+                return;
+            }
+        }
+    }
+
+    // ----- plumbing -----
+
+    fn seq(&mut self) -> u64 {
+        let s = self.next_seq;
+        self.next_seq += 1;
+        s
+    }
+
+    fn now_s(&self) -> f64 {
+        self.links.status.read().map(|s| s.t_s).unwrap_or(0.0)
+    }
+
+    fn send(&mut self, cmd: ControlCommand, purpose: Purpose, reply: Option<(u64, Responder)>) {
+        let seq = cmd.seq();
+        match self.links.commands.try_send(cmd) {
+            Ok(()) => self.pending.push(Pending {
+                seq,
+                purpose,
+                reply,
+                sent: Instant::now(),
+            }),
+            Err(_) => {
+                if let Some((id, to)) = reply {
+                    self.reply_err(
+                        id,
+                        to,
+                        ErrorCode::Unavailable,
+                        "the control loop is not taking commands",
+                    );
+                }
+            }
+        }
+    }
+
+    /// Record into the open trial. Streamed samples may be dropped when the recorder lags
+    /// (`try_send`); everything else waits for room, so that nothing later acknowledged as
+    /// durable can be missing from the file.
+    fn record(&self, topic: Topic, t_s: f64, v: &Value) {
+        if self.trial.is_none() {
+            return;
+        }
+        let msg = RecorderMsg::Write {
+            topic,
+            t_s,
+            json: v.to_string().into_bytes(),
+        };
+        if matches!(topic, Topic::Events) {
+            let _ = self.links.recorder.send(msg);
+        } else {
+            let _ = self.links.recorder.try_send(msg);
+        }
+    }
+
+    fn publish(&self, stream: Stream, counter: u64, v: &Value, durable: bool) {
+        let _ = self.links.recorder.send(RecorderMsg::Publish {
+            event: StreamEvent::new(stream, counter, v),
+            durable,
+        });
+    }
+
+    fn reply_ok(&self, id: u64, to: Responder, result: Value, durable: bool) {
+        let mut result = result;
+        if let Value::Object(o) = &mut result {
+            o.insert("state".into(), Value::from(self.state.as_str()));
+        }
+        let _ = self.links.recorder.send(RecorderMsg::Reply {
+            to,
+            reply: ok_reply(id, result),
+            durable,
+        });
+    }
+
+    fn reply_err(&self, id: u64, to: Responder, code: ErrorCode, reason: &str) {
+        let mut r = error_reply(Some(id), code, reason);
+        if let Value::Object(o) = &mut r {
+            o.insert("state".into(), Value::from(self.state.as_str()));
+        }
+        let _ = self.links.recorder.send(RecorderMsg::Reply {
+            to,
+            reply: r,
+            durable: false,
+        });
+    }
+
+    fn set_state(&mut self, s: OpState) {
+        if s == self.state {
+            return;
+        }
+        let from = self.state;
+        self.state = s;
+        self.links
+            .shared_state
+            .store(state_code(s), Ordering::Release);
+        let t = self.now_s();
+        let v = json!({
+            "event": "state",
+            "t_s": t,
+            "state": s.as_str(),
+            "from": from.as_str(),
+            "seeds": self.trial.as_ref().map(|t| t.seeds()).unwrap_or(0),
+        });
+        tracing::info!("state {} -> {}", from.as_str(), s.as_str());
+        self.record(Topic::Events, t, &v);
+        self.publish(Stream::State, 0, &v, false);
+    }
+
+    fn context(&self) -> Context {
+        Context {
+            seeds: self.trial.as_ref().map(|t| t.seeds()).unwrap_or(0),
+            seeds_needed: 2,
+            debug_hooks: self.s.debug_hooks,
+        }
+    }
+
+    fn in_workspace(&self, p: SurfacePoint) -> bool {
+        p.is_finite()
+            && (self.s.workspace_x_m[0]..=self.s.workspace_x_m[1]).contains(&p.x_m)
+            && (self.s.workspace_z_m[0]..=self.s.workspace_z_m[1]).contains(&p.z_m)
+    }
+
+    // ----- console requests -----
+
+    fn on_request(&mut self, id: u64, verb: Verb, to: Responder) {
+        if self.shutdown.is_some() {
+            return self.reply_err(
+                id,
+                to,
+                ErrorCode::Unavailable,
+                "the daemon is shutting down",
+            );
+        }
+        if let Verb::Status = verb {
+            let status = self.status_json();
+            return self.reply_ok(id, to, status, false);
+        }
+        if let Err(why) = state::admit(self.state, &verb, &self.context()) {
+            return self.reply_err(id, to, ErrorCode::WrongState, &why);
+        }
+        let t = self.now_s();
+        let verb_name = verb.name();
+        let logged = json!({"event": "verb", "t_s": t, "verb": verb_name, "id": id, "args": format!("{verb:?}")});
+        self.record(Topic::Events, t, &logged);
+        match verb {
+            Verb::Status | Verb::Subscribe { .. } | Verb::Unsubscribe => {
+                self.reply_ok(id, to, json!({}), false)
+            }
+            Verb::Enable => {
+                let seq = self.seq();
+                self.send(
+                    ControlCommand::Enable { seq },
+                    Purpose::Enable,
+                    Some((id, to)),
+                );
+            }
+            Verb::Disable => {
+                self.end_trial(TrialEnd::Disabled);
+                let seq = self.seq();
+                self.send(
+                    ControlCommand::Disable { seq },
+                    Purpose::Disable,
+                    Some((id, to)),
+                );
+            }
+            Verb::Estop => {
+                let seq = self.seq();
+                self.send(
+                    ControlCommand::Estop { seq },
+                    Purpose::Estop,
+                    Some((id, to)),
+                );
+            }
+            Verb::Reset => {
+                let seq = self.seq();
+                self.send(
+                    ControlCommand::Reset { seq },
+                    Purpose::Reset,
+                    Some((id, to)),
+                );
+            }
+            Verb::Home => {
+                let target = self.s.home;
+                self.manual_move(id, to, target, self.s.move_speed_m_s);
+            }
+            Verb::Move {
+                x_m,
+                z_m,
+                speed_m_s,
+            } => {
+                let speed = speed_m_s.unwrap_or(self.s.move_speed_m_s);
+                self.manual_move(id, to, SurfacePoint::new(x_m, z_m), speed);
+            }
+            Verb::Jog { dx_m, dz_m } => {
+                let from = self
+                    .links
+                    .status
+                    .read()
+                    .map(|s| s.setpoint)
+                    .unwrap_or_default();
+                let target = SurfacePoint::new(from.x_m + dx_m, from.z_m + dz_m);
+                self.manual_move(id, to, target, self.s.move_speed_m_s);
+            }
+            Verb::Mark => self.mark(id, to, t),
+            Verb::Track { length_m } => self.track(id, to, t, length_m),
+            Verb::Pause => {
+                let seq = self.seq();
+                self.motion_seq = seq;
+                self.send(ControlCommand::Hold { seq }, Purpose::Pause, Some((id, to)));
+            }
+            Verb::Resume => {
+                self.set_state(OpState::Tracking);
+                if let Some(target) = self.tracker_target.take() {
+                    self.tracker_move(target, self.s.move_speed_m_s);
+                }
+                self.reply_ok(id, to, json!({}), true);
+            }
+            Verb::Stop => {
+                match self.state {
+                    OpState::Tracking | OpState::Paused => {
+                        if let Some(tr) = self.tracker.as_mut() {
+                            tr.stop();
+                        }
+                        self.end_trial(TrialEnd::Tracker(control::tracker::EndReason::Stopped));
+                    }
+                    OpState::Seeding => self.end_trial(TrialEnd::Abandoned),
+                    _ => {}
+                }
+                let seq = self.seq();
+                self.motion_seq = seq;
+                self.send(
+                    ControlCommand::Hold { seq },
+                    Purpose::StopHold,
+                    Some((id, to)),
+                );
+            }
+            Verb::Debug(DebugAction::SilenceTactile { duration_s }) => {
+                let seq = self.seq();
+                self.send(
+                    ControlCommand::SilenceTactile { seq, duration_s },
+                    Purpose::Debug,
+                    Some((id, to)),
+                );
+            }
+        }
+    }
+
+    fn manual_move(&mut self, id: u64, to: Responder, target: SurfacePoint, speed: f64) {
+        if !self.in_workspace(target) {
+            let why = format!(
+                "target ({:.4}, {:.4}) m is outside the workspace x [{}, {}] m, z [{}, {}] m",
+                target.x_m,
+                target.z_m,
+                self.s.workspace_x_m[0],
+                self.s.workspace_x_m[1],
+                self.s.workspace_z_m[0],
+                self.s.workspace_z_m[1]
+            );
+            return self.reply_err(id, to, ErrorCode::OutOfRange, &why);
+        }
+        let speed = speed.min(self.s.max_speed_m_s);
+        let seq = self.seq();
+        self.send(
+            ControlCommand::MoveTo {
+                seq,
+                target,
+                speed_m_s: speed,
+            },
+            Purpose::ManualMove,
+            Some((id, to)),
+        );
+    }
+
+    fn mark(&mut self, id: u64, to: Responder, t: f64) {
+        if self.state == OpState::Done || self.trial.is_none() {
+            self.start_trial(t);
+        }
+        let Some(tracker) = self.tracker.as_mut() else {
+            return self.reply_err(id, to, ErrorCode::Unavailable, "no tracker could be built");
+        };
+        match tracker.mark() {
+            Ok(()) => {
+                self.set_state(OpState::Seeding);
+                self.reply_ok(id, to, json!({}), true);
+            }
+            Err(e) => self.reply_err(id, to, ErrorCode::WrongState, &e.to_string()),
+        }
+    }
+
+    fn track(&mut self, id: u64, to: Responder, t: f64, length_m: Option<f64>) {
+        let Some(tracker) = self.tracker.as_mut() else {
+            return self.reply_err(
+                id,
+                to,
+                ErrorCode::WrongState,
+                "no trial: mark two seed points first",
+            );
+        };
+        match tracker.start(TrackLimit { length_m }) {
+            Ok(()) => {
+                if let Some(trial) = self.trial.as_mut() {
+                    trial.track_started_t_s = Some(t);
+                    trial.length_m = length_m;
+                }
+                self.tracker_target = None;
+                self.set_state(OpState::Tracking);
+                self.reply_ok(id, to, json!({"length_m": length_m}), true);
+            }
+            Err(e) => self.reply_err(id, to, ErrorCode::WrongState, &e.to_string()),
+        }
+    }
+
+    // ----- trials -----
+
+    fn start_trial(&mut self, t: f64) {
+        if self.trial.is_some() {
+            self.end_trial(TrialEnd::Abandoned);
+        }
+        let tracker = match (self.factory)() {
+            Ok(tr) => tr,
+            Err(e) => {
+                tracing::error!("building tracker {}: {e}", self.s.tracker_name);
+                return;
+            }
+        };
+        let id = format!(
+            "{}-{}",
+            utc_stamp(std::time::SystemTime::now()),
+            self.next_seq
+        );
+        let mut metadata = BTreeMap::new();
+        metadata.insert("trial".to_string(), id.clone());
+        metadata.insert("tracker".to_string(), tracker.name().to_string());
+        metadata.insert("backend".to_string(), self.info.kind.to_string());
+        metadata.insert("context".to_string(), self.s.trial_context.to_string());
+        let _ = self.links.recorder.send(RecorderMsg::Open {
+            id: id.clone(),
+            metadata,
+        });
+        let trial = Trial::new(id.clone(), tracker.name().to_string(), t);
+        self.tracker = Some(tracker);
+        self.trial = Some(trial);
+        let v = json!({"event": "trial", "phase": "started", "t_s": t, "trial": id,
+            "recording": self.s.recording_dir.join(format!("{id}.mcap"))});
+        self.record(Topic::Events, t, &v);
+        self.publish(Stream::Trials, 0, &v, true);
+    }
+
+    fn end_trial(&mut self, end: TrialEnd) {
+        let Some(trial) = self.trial.take() else {
+            return;
+        };
+        self.tracker = None;
+        self.tracker_target = None;
+        let t = self.now_s();
+        let recording = self.s.recording_dir.join(format!("{}.mcap", trial.id));
+        let summary = trial.summary(
+            end,
+            t,
+            self.judge.as_deref(),
+            &recording.display().to_string(),
+            self.s.trial_context.clone(),
+        );
+        let ev = json!({"event": "trial", "phase": "ended", "t_s": t, "trial": trial.id,
+            "end_reason": end.as_str(), "summary": summary});
+        // Record the end into the file, then close it, then announce.
+        let _ = self.links.recorder.send(RecorderMsg::Write {
+            topic: Topic::Events,
+            t_s: t,
+            json: ev.to_string().into_bytes(),
+        });
+        tracing::info!("trial {} ended: {}", trial.id, end.as_str());
+        self.last_trial = Some(summary.clone());
+        let _ = self.links.recorder.send(RecorderMsg::Close {
+            summary,
+            then: Some(StreamEvent::new(Stream::Trials, 0, &ev)),
+        });
+    }
+
+    // ----- the loop's events -----
+
+    fn on_event(&mut self, e: ControlEvent) {
+        match e {
+            ControlEvent::Done { seq, .. } => self.on_answer(seq, None),
+            ControlEvent::Refused { seq, why, .. } => self.on_answer(seq, Some(why)),
+            ControlEvent::Faulted(f) => self.on_fault(f),
+            ControlEvent::Timing { summary, .. } => {
+                if summary.overruns > self.overruns_reported {
+                    let new = summary.overruns - self.overruns_reported;
+                    if summary.batched {
+                        tracing::warn!(
+                            "simulation slower than asked: {:.1}x real time instead of {}x ({} of its 1 ms batches fell behind, {new} new; {} control cycles of simulated time not run)",
+                            summary.achieved_time_scale,
+                            self.info.time_scale,
+                            summary.overruns,
+                            summary.skipped
+                        );
+                    } else {
+                        tracing::warn!(
+                            "control loop: {} overruns so far ({new} new), {} deadlines skipped; period p50 {:.0} us, p99 {:.0} us, p99.9 {:.0} us, max {:.0} us over {} cycles",
+                            summary.overruns,
+                            summary.skipped,
+                            summary.p50_us,
+                            summary.p99_us,
+                            summary.p999_us,
+                            summary.max_us,
+                            summary.cycles
+                        );
+                    }
+                    self.overruns_reported = summary.overruns;
+                }
+                self.timing = Some(summary);
+            }
+            ControlEvent::Stopped { .. } => {}
+        }
+    }
+
+    fn on_answer(&mut self, seq: u64, refused: Option<Refusal>) {
+        let Some(i) = self.pending.iter().position(|p| p.seq == seq) else {
+            return;
+        };
+        let p = self.pending.swap_remove(i);
+        let reply = p.reply;
+        if let Some(why) = refused {
+            let reason = why.describe();
+            match p.purpose {
+                Purpose::TrackerMove => {
+                    tracing::info!("tracker target refused: {reason}");
+                    if let Some(tr) = self.tracker.as_mut() {
+                        tr.target_unreachable();
+                    }
+                }
+                Purpose::ShutdownHold => {}
+                _ => {}
+            }
+            if let Some((id, to)) = reply {
+                self.reply_err(id, to, ErrorCode::Refused, &reason);
+            }
+            return;
+        }
+        let mut durable = false;
+        match p.purpose {
+            Purpose::Enable => self.set_state(OpState::Holding),
+            Purpose::Disable => self.set_state(OpState::Disabled),
+            Purpose::Reset => {
+                self.fault = None;
+                self.set_state(OpState::Disabled);
+            }
+            Purpose::Estop => {}
+            Purpose::ManualMove => {
+                self.motion_seq = seq;
+                self.set_state(OpState::Moving);
+            }
+            Purpose::Pause => self.set_state(OpState::Paused),
+            Purpose::StopHold => {
+                durable = true;
+                if self.state == OpState::Moving {
+                    self.set_state(OpState::Holding);
+                } else if matches!(
+                    self.state,
+                    OpState::Tracking | OpState::Paused | OpState::Seeding
+                ) {
+                    self.set_state(OpState::Done);
+                }
+            }
+            Purpose::TrackerMove
+            | Purpose::TrackerHold
+            | Purpose::Debug
+            | Purpose::ShutdownHold => {}
+        }
+        if let Some((id, to)) = reply {
+            let result = match p.purpose {
+                Purpose::ManualMove => json!({"motion_seq": seq}),
+                _ => json!({}),
+            };
+            self.reply_ok(id, to, result, durable);
+        }
+    }
+
+    fn on_fault(&mut self, f: Fault) {
+        let reason = f.describe();
+        tracing::error!("FAULT latched: {reason}");
+        let dump = self.dump_flight_recorder(&f);
+        self.end_trial(TrialEnd::Fault);
+        for p in self.pending.drain(..) {
+            if let Some((id, to)) = p.reply {
+                let mut r = error_reply(Some(id), ErrorCode::Refused, &format!("fault: {reason}"));
+                if let Value::Object(o) = &mut r {
+                    o.insert("state".into(), Value::from("fault"));
+                }
+                let _ = self.links.recorder.send(RecorderMsg::Reply {
+                    to,
+                    reply: r,
+                    durable: false,
+                });
+            }
+        }
+        self.fault = Some((f, dump.clone()));
+        self.set_state(OpState::Fault);
+        let v = json!({"event": "fault", "t_s": f.t_s, "fault": f.kind, "reason": reason,
+            "axis": f.axis, "value": finite_or_null(f.value), "limit": finite_or_null(f.limit),
+            "flight_recorder": dump});
+        self.publish(Stream::Faults, 0, &v, true);
+    }
+
+    fn dump_flight_recorder(&self, f: &Fault) -> Option<PathBuf> {
+        if let Err(e) = std::fs::create_dir_all(&self.s.recording_dir) {
+            tracing::error!(
+                "flight recorder: cannot create {}: {e}",
+                self.s.recording_dir.display()
+            );
+            return None;
+        }
+        let path = self.s.recording_dir.join(format!(
+            "fault-{}-{}.jsonl",
+            utc_stamp(std::time::SystemTime::now()),
+            f.kind.as_str()
+        ));
+        match self.links.flight.dump(&path) {
+            Ok(n) => {
+                tracing::error!(
+                    "flight recorder: {n} cycles before the fault in {}",
+                    path.display()
+                );
+                Some(path)
+            }
+            Err(e) => {
+                tracing::error!("flight recorder dump to {} failed: {e}", path.display());
+                None
+            }
+        }
+    }
+
+    // ----- frames and joint samples -----
+
+    fn on_sample(&mut self, s: LoopSample) {
+        match s {
+            LoopSample::Joints { status, truth } => {
+                self.truth = truth;
+                if self.trial.is_some() {
+                    self.record(
+                        Topic::Joints,
+                        status.t_s,
+                        &report::joint_json(&status, self.state),
+                    );
+                    if let Some(t) = truth {
+                        self.record(Topic::Truth, t.t_s, &json!(t));
+                    }
+                }
+            }
+            LoopSample::Frame(f) => self.on_frame(f),
+        }
+    }
+
+    fn on_frame(&mut self, f: StampedFrame) {
+        self.frames_seen += 1;
+        let v = report::frame_json(&f);
+        self.record(Topic::Tactile, f.frame.t_s, &v);
+        let mut ev = v;
+        if let Value::Object(o) = &mut ev {
+            o.insert("event".into(), Value::from("tactile"));
+        }
+        self.publish(Stream::Tactile, f.frame.seq, &ev, false);
+
+        let settled = f.settled && f.motion_seq == self.motion_seq;
+        if self.state == OpState::Moving && settled {
+            self.set_state(OpState::Holding);
+        }
+        // The tracker sees every frame of its trial (it may still owe events from an
+        // acquisition that just ended) except while paused: there the arm holds for the
+        // operator, and `settled` would wrongly vouch for the tracker's interrupted move.
+        if self.state == OpState::Paused {
+            return;
+        }
+        let Some(tracker) = self.tracker.as_mut() else {
+            return;
+        };
+        let out = tracker.step(&TrackerInput {
+            frame: &f.frame,
+            sensor: f.sensor,
+            settled,
+        });
+        if let Some(e) = out.event {
+            self.on_tracker_event(e);
+        }
+        match self.state {
+            OpState::Seeding => {
+                // The mark is over when its result (located or missed) has been reported,
+                // which may be a frame or more after the tracker's phase went back.
+                let result = matches!(
+                    out.event,
+                    Some(TrackerEvent::Located(_) | TrackerEvent::Missed { .. })
+                );
+                if result {
+                    self.set_state(OpState::Holding);
+                }
+            }
+            OpState::Tracking => match out.motion {
+                MotionCommand::MoveTo { target, speed_m_s } => {
+                    if self.tracker_target != Some(target) {
+                        self.tracker_move(target, speed_m_s);
+                    }
+                }
+                MotionCommand::Hold => {
+                    if self.tracker_target.take().is_some() {
+                        let seq = self.seq();
+                        self.motion_seq = seq;
+                        self.send(ControlCommand::Hold { seq }, Purpose::TrackerHold, None);
+                    }
+                }
+            },
+            _ => {}
+        }
+    }
+
+    fn tracker_move(&mut self, target: SurfacePoint, speed_m_s: f64) {
+        self.tracker_target = Some(target);
+        if !self.in_workspace(target) {
+            tracing::info!(
+                "tracker target ({:.4}, {:.4}) m is outside the workspace",
+                target.x_m,
+                target.z_m
+            );
+            if let Some(tr) = self.tracker.as_mut() {
+                tr.target_unreachable();
+            }
+            return;
+        }
+        let seq = self.seq();
+        self.motion_seq = seq;
+        let speed = if speed_m_s.is_finite() && speed_m_s > 0.0 {
+            speed_m_s.min(self.s.max_speed_m_s)
+        } else {
+            self.s.move_speed_m_s
+        };
+        self.send(
+            ControlCommand::MoveTo {
+                seq,
+                target,
+                speed_m_s: speed,
+            },
+            Purpose::TrackerMove,
+            None,
+        );
+    }
+
+    fn on_tracker_event(&mut self, e: TrackerEvent) {
+        let truth = self.truth;
+        let (v, durable) = match e {
+            TrackerEvent::Located(p) => {
+                let rec = self
+                    .trial
+                    .as_mut()
+                    .map(|t| t.add_located(&p, truth, self.judge.as_deref()));
+                (
+                    json!({"event": "detection", "kind": "located", "t_s": p.t_s, "point": rec}),
+                    true,
+                )
+            }
+            TrackerEvent::Missed { t_s, at } => {
+                if let Some(t) = self.trial.as_mut() {
+                    t.misses += 1;
+                }
+                (
+                    json!({"event": "detection", "kind": "missed", "t_s": t_s, "x_m": at.x_m, "z_m": at.z_m}),
+                    true,
+                )
+            }
+            TrackerEvent::Backtracking { t_s, toward } => {
+                if let Some(t) = self.trial.as_mut() {
+                    t.backtracks += 1;
+                }
+                (
+                    json!({"event": "detection", "kind": "backtracking", "t_s": t_s, "x_m": toward.x_m, "z_m": toward.z_m}),
+                    false,
+                )
+            }
+            TrackerEvent::Pulse { t_s, period_s } => {
+                if let Some(t) = self.trial.as_mut() {
+                    t.pulse_period_s = Some(period_s);
+                }
+                (
+                    json!({"event": "detection", "kind": "pulse", "t_s": t_s, "period_s": period_s}),
+                    false,
+                )
+            }
+            TrackerEvent::Finished { t_s, reason } => {
+                let v = json!({"event": "detection", "kind": "finished", "t_s": t_s, "reason": reason.as_str()});
+                self.record(Topic::Events, t_s, &v);
+                self.publish(Stream::Detections, 0, &v, true);
+                self.end_trial(TrialEnd::Tracker(reason));
+                let seq = self.seq();
+                self.motion_seq = seq;
+                self.send(ControlCommand::Hold { seq }, Purpose::TrackerHold, None);
+                self.set_state(OpState::Done);
+                return;
+            }
+        };
+        let t = v["t_s"].as_f64().unwrap_or(0.0);
+        self.record(Topic::Events, t, &v);
+        self.publish(Stream::Detections, 0, &v, durable);
+    }
+
+    // ----- periodic work -----
+
+    fn on_tick(&mut self) {
+        self.links.heartbeat.fetch_add(1, Ordering::Relaxed);
+        let now = Instant::now();
+        let timeout = self.s.command_timeout;
+        let mut expired = Vec::new();
+        self.pending.retain_mut(|p| {
+            if now.duration_since(p.sent) > timeout {
+                expired.push(p.reply.take());
+                false
+            } else {
+                true
+            }
+        });
+        for (id, to) in expired.into_iter().flatten() {
+            self.reply_err(
+                id,
+                to,
+                ErrorCode::Unavailable,
+                "the control loop did not answer in time",
+            );
+        }
+        if self.state == OpState::Moving
+            && let Some(st) = self.links.status.read()
+            && st.motion_seq == self.motion_seq
+            && st.settled
+        {
+            self.set_state(OpState::Holding);
+        }
+        if now.duration_since(self.last_state_beat) >= Duration::from_millis(250) {
+            self.last_state_beat = now;
+            if let Some(st) = self.links.status.read() {
+                let v = report::state_beat(&st, self.state, self.trial.as_ref());
+                self.publish(Stream::State, 0, &v, false);
+            }
+        }
+    }
+
+    // ----- shutdown -----
+
+    fn begin_shutdown(&mut self, done: Sender<()>) {
+        if self.shutdown.is_some() {
+            let _ = done.send(());
+            return;
+        }
+        tracing::info!("controlled stop: ending the trial, coming to rest, powering off");
+        match self.state {
+            OpState::Tracking | OpState::Paused | OpState::Seeding => {
+                if let Some(tr) = self.tracker.as_mut() {
+                    tr.stop();
+                }
+            }
+            _ => {}
+        }
+        self.end_trial(TrialEnd::Shutdown);
+        let hold_seq = if self.state.powered() {
+            let seq = self.seq();
+            self.motion_seq = seq;
+            self.send(ControlCommand::Hold { seq }, Purpose::ShutdownHold, None);
+            Some(seq)
+        } else {
+            None
+        };
+        self.shutdown = Some(Shutdown {
+            done,
+            deadline: Instant::now() + self.s.stop_timeout,
+            hold_seq,
+        });
+    }
+
+    fn finish_shutdown_if_ready(&mut self) -> bool {
+        let Some(sd) = self.shutdown.as_ref() else {
+            return false;
+        };
+        let rested = match sd.hold_seq {
+            None => true,
+            Some(seq) => self
+                .links
+                .status
+                .read()
+                .map(|s| {
+                    s.motion_seq == seq && s.settled || s.mode != crate::rt::link::LoopMode::Enabled
+                })
+                .unwrap_or(true),
+        };
+        if !rested && Instant::now() < sd.deadline {
+            return false;
+        }
+        if self.state.powered() {
+            let seq = self.seq();
+            let _ = self
+                .links
+                .commands
+                .try_send(ControlCommand::Disable { seq });
+            self.set_state(OpState::Disabled);
+        }
+        if let Some(sd) = self.shutdown.take() {
+            let _ = sd.done.send(());
+        }
+        true
+    }
+
+    fn status_json(&self) -> Value {
+        report::status_json(
+            self.links.status.read().unwrap_or_default(),
+            self.fault.as_ref(),
+            &self.info,
+            self.trial.as_ref(),
+            self.last_trial.as_ref(),
+            self.timing,
+            self.frames_seen,
+        )
+    }
+}
+
+fn finite_or_null(v: f64) -> Value {
+    if v.is_finite() { json!(v) } else { Value::Null }
+}

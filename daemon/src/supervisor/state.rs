@@ -1,0 +1,236 @@
+//! Operating states and which verbs each accepts. Pure: the table is tested on its own.
+//!
+//! ```text
+//! disabled --enable--> holding --move/jog/home--> moving --settled--> holding
+//!                      holding --mark--> seeding --located/missed--> holding
+//!                      holding (2 seeds) --track--> tracking <--pause/resume--> paused
+//!                      tracking --finished/stop--> done --move/mark/...--> (as holding)
+//! any --fault/estop--> fault --reset--> disabled        enabled states --disable--> disabled
+//! ```
+
+use serde::Serialize;
+
+use crate::console::protocol::Verb;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OpState {
+    /// Amplifiers off.
+    Disabled,
+    /// Powered and holding still.
+    Holding,
+    /// A manual move (move, jog, home) is under way.
+    Moving,
+    /// Acquiring at a manual placement (a mark).
+    Seeding,
+    /// Following the artery.
+    Tracking,
+    /// Tracking suspended, holding still.
+    Paused,
+    /// A trial ended; powered and holding still.
+    Done,
+    /// A fault is latched; power is off until reset.
+    Fault,
+}
+
+impl OpState {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            OpState::Disabled => "disabled",
+            OpState::Holding => "holding",
+            OpState::Moving => "moving",
+            OpState::Seeding => "seeding",
+            OpState::Tracking => "tracking",
+            OpState::Paused => "paused",
+            OpState::Done => "done",
+            OpState::Fault => "fault",
+        }
+    }
+
+    pub fn powered(&self) -> bool {
+        !matches!(self, OpState::Disabled | OpState::Fault)
+    }
+}
+
+/// What the table needs to know beyond the state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Context {
+    /// Seed points located in the current trial.
+    pub seeds: usize,
+    /// Seed points a track needs.
+    pub seeds_needed: usize,
+    /// `console.debug_hooks`.
+    pub debug_hooks: bool,
+}
+
+/// Accept `verb` in `state`, or say why not.
+pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
+    use OpState as S;
+    let s = state.as_str();
+    let refuse = |why: &str| Err(format!("cannot {} while {s}: {why}", verb.name()));
+    match verb {
+        Verb::Status | Verb::Subscribe { .. } | Verb::Unsubscribe | Verb::Estop => Ok(()),
+        Verb::Debug(_) => {
+            if ctx.debug_hooks {
+                Ok(())
+            } else {
+                Err("debug hooks are off (console.debug_hooks in the config)".into())
+            }
+        }
+        Verb::Enable => match state {
+            S::Disabled => Ok(()),
+            S::Fault => refuse("a fault is latched; reset first"),
+            _ => refuse("already enabled"),
+        },
+        Verb::Disable => match state {
+            S::Disabled => refuse("already disabled"),
+            S::Fault => refuse("power is already off; reset clears the fault"),
+            _ => Ok(()),
+        },
+        Verb::Home | Verb::Jog { .. } | Verb::Move { .. } => match state {
+            S::Holding | S::Done => Ok(()),
+            S::Disabled => refuse("enable first"),
+            S::Fault => refuse("a fault is latched; reset first"),
+            S::Moving => refuse("a move is under way; stop it first"),
+            S::Seeding => refuse("a mark is acquiring; wait for it or stop"),
+            S::Tracking | S::Paused => refuse("a track is running; stop it first"),
+        },
+        Verb::Mark => match state {
+            S::Holding | S::Done => {
+                if state == S::Holding && ctx.seeds >= ctx.seeds_needed && ctx.seeds_needed > 0 {
+                    refuse("both seed points are marked; track, or stop to start over")
+                } else {
+                    Ok(())
+                }
+            }
+            S::Disabled => refuse("enable first"),
+            S::Fault => refuse("a fault is latched; reset first"),
+            S::Moving => refuse("wait for the move to settle"),
+            S::Seeding => refuse("a mark is already acquiring"),
+            S::Tracking | S::Paused => refuse("a track is running"),
+        },
+        Verb::Track { .. } => match state {
+            S::Holding => {
+                if ctx.seeds >= ctx.seeds_needed {
+                    Ok(())
+                } else {
+                    refuse(&format!(
+                        "tracking needs {} marked seed points; have {}",
+                        ctx.seeds_needed, ctx.seeds
+                    ))
+                }
+            }
+            S::Done => refuse("the trial has ended; mark two new seed points"),
+            S::Disabled => refuse("enable first"),
+            S::Fault => refuse("a fault is latched; reset first"),
+            S::Moving => refuse("wait for the move to settle"),
+            S::Seeding => refuse("wait for the mark to finish"),
+            S::Tracking => refuse("already tracking"),
+            S::Paused => refuse("paused; resume instead"),
+        },
+        Verb::Pause => match state {
+            S::Tracking => Ok(()),
+            S::Paused => refuse("already paused"),
+            _ => refuse("nothing is tracking"),
+        },
+        Verb::Resume => match state {
+            S::Paused => Ok(()),
+            _ => refuse("nothing is paused"),
+        },
+        Verb::Stop => match state {
+            S::Moving | S::Seeding | S::Tracking | S::Paused => Ok(()),
+            S::Holding | S::Done => refuse("nothing is moving"),
+            S::Disabled => refuse("power is off"),
+            S::Fault => refuse("a fault is latched; power is already off"),
+        },
+        Verb::Reset => match state {
+            S::Fault => Ok(()),
+            _ => refuse("no fault is latched"),
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ALL: [OpState; 8] = [
+        OpState::Disabled,
+        OpState::Holding,
+        OpState::Moving,
+        OpState::Seeding,
+        OpState::Tracking,
+        OpState::Paused,
+        OpState::Done,
+        OpState::Fault,
+    ];
+
+    fn ctx(seeds: usize) -> Context {
+        Context {
+            seeds,
+            seeds_needed: 2,
+            debug_hooks: false,
+        }
+    }
+
+    fn accepted(verb: &Verb, seeds: usize) -> Vec<OpState> {
+        ALL.iter()
+            .copied()
+            .filter(|s| admit(*s, verb, &ctx(seeds)).is_ok())
+            .collect()
+    }
+
+    #[test]
+    fn the_table() {
+        use OpState::*;
+        assert_eq!(accepted(&Verb::Enable, 0), vec![Disabled]);
+        assert_eq!(accepted(&Verb::Reset, 0), vec![Fault]);
+        assert_eq!(accepted(&Verb::Estop, 0), ALL.to_vec());
+        assert_eq!(accepted(&Verb::Status, 0), ALL.to_vec());
+        assert_eq!(
+            accepted(
+                &Verb::Move {
+                    x_m: 0.0,
+                    z_m: 0.0,
+                    speed_m_s: None
+                },
+                0
+            ),
+            vec![Holding, Done]
+        );
+        assert_eq!(accepted(&Verb::Mark, 1), vec![Holding, Done]);
+        assert_eq!(accepted(&Verb::Mark, 2), vec![Done]);
+        assert_eq!(
+            accepted(&Verb::Track { length_m: None }, 1),
+            Vec::<OpState>::new()
+        );
+        assert_eq!(accepted(&Verb::Track { length_m: None }, 2), vec![Holding]);
+        assert_eq!(accepted(&Verb::Pause, 2), vec![Tracking]);
+        assert_eq!(accepted(&Verb::Resume, 2), vec![Paused]);
+        assert_eq!(
+            accepted(&Verb::Stop, 2),
+            vec![Moving, Seeding, Tracking, Paused]
+        );
+        assert_eq!(
+            accepted(&Verb::Disable, 0),
+            vec![Holding, Moving, Seeding, Tracking, Paused, Done]
+        );
+    }
+
+    #[test]
+    fn refusals_say_the_verb_the_state_and_why() {
+        let r = admit(OpState::Disabled, &Verb::Track { length_m: None }, &ctx(0))
+            .expect_err("refused");
+        assert_eq!(r, "cannot track while disabled: enable first");
+        let r =
+            admit(OpState::Holding, &Verb::Track { length_m: None }, &ctx(1)).expect_err("refused");
+        assert!(r.contains("needs 2 marked seed points; have 1"), "{r}");
+        let r = admit(
+            OpState::Holding,
+            &Verb::Debug(crate::console::protocol::DebugAction::SilenceTactile { duration_s: 1.0 }),
+            &ctx(0),
+        )
+        .expect_err("refused");
+        assert!(r.contains("debug_hooks"), "{r}");
+    }
+}

@@ -1,0 +1,246 @@
+//! Harness for the end-to-end tests: the real daemon program (`pt-daemon`, which is
+//! `pulsetrackd`) on the simulated bench, started as a child process with a config written
+//! for the test, driven over its Unix socket with the console client.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+use daemon::console::client::Client;
+use serde_json::{Value, json};
+
+pub const T: Duration = Duration::from_secs(30);
+
+/// Settings a test changes in the shipped sim config.
+#[derive(Debug, Clone)]
+pub struct Setup {
+    pub scene: String,
+    pub seed: u64,
+    pub time_scale: f64,
+    pub debug_hooks: bool,
+}
+
+impl Default for Setup {
+    fn default() -> Self {
+        Self {
+            scene: "seed-arc-220.ron".into(),
+            seed: 1,
+            time_scale: 40.0,
+            debug_hooks: false,
+        }
+    }
+}
+
+pub struct Running {
+    pub child: Child,
+    pub dir: PathBuf,
+    pub socket: PathBuf,
+    pub config: PathBuf,
+}
+
+/// The shipped sim config with this test's socket, recording directory, scene and clock.
+pub fn write_config(dir: &Path, s: &Setup) -> PathBuf {
+    let (_, text) = config::shipped::SIM_CONFIG;
+    let socket = dir.join("console.sock");
+    let trials = dir.join("trials");
+    let mut text = text
+        .replace(
+            "socket_path: \"/tmp/pulsetrack/console.sock\",",
+            &format!(
+                "socket_path: {:?},\n        debug_hooks: {},",
+                socket.display().to_string(),
+                s.debug_hooks
+            ),
+        )
+        .replace(
+            "dir: \"/tmp/pulsetrack/trials\",",
+            &format!("dir: {:?},", trials.display().to_string()),
+        )
+        .replace(
+            "time_scale: 1.0,",
+            &format!("time_scale: {:?},", s.time_scale),
+        )
+        .replace("seed: 1,", &format!("seed: {},", s.seed))
+        .replace("\"seed-arc-145.ron\"", &format!("{:?}", s.scene));
+    text.push('\n');
+    let path = dir.join("daemon.ron");
+    std::fs::write(&path, text).expect("write config");
+    path
+}
+
+/// Start the daemon on `dir` and wait until its socket answers and the tactile stream is live.
+pub fn start(dir: &Path, s: &Setup) -> (Running, Client) {
+    let config = write_config(dir, s);
+    start_with_config(dir, config)
+}
+
+pub fn start_with_config(dir: &Path, config: PathBuf) -> (Running, Client) {
+    let log = std::fs::File::create(dir.join("daemon.log")).expect("log file");
+    let child = Command::new(env!("CARGO_BIN_EXE_pt-daemon"))
+        .arg("--config")
+        .arg(&config)
+        .env("RUST_LOG", "info")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::from(log))
+        .spawn()
+        .expect("spawn pt-daemon");
+    let mut r = Running {
+        child,
+        dir: dir.to_path_buf(),
+        socket: dir.join("console.sock"),
+        config,
+    };
+    let deadline = Instant::now() + T;
+    let mut client = loop {
+        if let Ok(c) = Client::connect(&r.socket, T) {
+            break c;
+        }
+        if let Ok(Some(status)) = r.child.try_wait() {
+            panic!(
+                "the daemon exited ({status}) before listening:\n{}",
+                r.log()
+            );
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no socket after 30 s:\n{}",
+            r.log()
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    loop {
+        let st = call(&mut client, "status", json!({}));
+        if st["tactile"]["frames"].as_u64().unwrap_or(0) > 0 {
+            break;
+        }
+        assert!(Instant::now() < deadline, "no tactile frames:\n{}", r.log());
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    (r, client)
+}
+
+impl Running {
+    pub fn log(&self) -> String {
+        std::fs::read_to_string(self.dir.join("daemon.log")).unwrap_or_default()
+    }
+
+    pub fn pid(&self) -> i32 {
+        self.child.id() as i32
+    }
+
+    pub fn signal(&self, sig: i32) {
+        // SAFETY-free: kill(1) is a process, not a libc call.
+        let status = Command::new("kill")
+            .arg(format!("-{sig}"))
+            .arg(self.pid().to_string())
+            .status()
+            .expect("run kill");
+        assert!(status.success());
+    }
+
+    pub fn wait(&mut self, timeout: Duration) -> ExitStatus {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(s) = self.child.try_wait().expect("wait") {
+                return s;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "the daemon did not exit:\n{}",
+                self.log()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// SIGTERM and wait for a clean exit.
+    pub fn stop(mut self) {
+        self.signal(15);
+        let status = self.wait(T);
+        assert!(status.success(), "exit {status}:\n{}", self.log());
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+pub fn call(c: &mut Client, verb: &str, args: Value) -> Value {
+    let r = c.request(verb, args, T).expect("reply");
+    assert_eq!(r["ok"], true, "{verb} refused: {r}");
+    r
+}
+
+pub fn state(c: &mut Client) -> String {
+    call(c, "status", json!({}))["state"]
+        .as_str()
+        .unwrap_or("?")
+        .to_string()
+}
+
+/// Wait for an event matching `pred`, failing on a fault event (unless waited for).
+pub fn wait_event(c: &mut Client, what: &str, pred: impl Fn(&Value) -> bool) -> Value {
+    let deadline = Instant::now() + Duration::from_secs(300);
+    loop {
+        if let Some(e) = c.next_event(Duration::from_millis(500)).expect("event") {
+            if pred(&e) {
+                return e;
+            }
+            assert!(e["event"] != "fault", "fault while waiting for {what}: {e}");
+        }
+        assert!(Instant::now() < deadline, "no {what} within 300 s");
+    }
+}
+
+pub fn wait_state(c: &mut Client, want: &str) {
+    let deadline = Instant::now() + Duration::from_secs(300);
+    loop {
+        if state(c) == want {
+            return;
+        }
+        assert!(Instant::now() < deadline, "never reached {want}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The scene's placements and tracked length from the daemon's status.
+pub fn scene(c: &mut Client) -> ([(f64, f64); 2], Option<f64>) {
+    let st = call(c, "status", json!({}));
+    let s = &st["backend"]["scene"];
+    let p = |i: usize| {
+        (
+            s["placements"][i][0].as_f64().expect("placement x"),
+            s["placements"][i][1].as_f64().expect("placement z"),
+        )
+    };
+    ([p(0), p(1)], s["tracked_length_m"].as_f64())
+}
+
+/// Enable, move to each placement and mark it; both marks must find the pulse.
+pub fn seed(c: &mut Client) {
+    call(
+        c,
+        "subscribe",
+        json!({"streams": ["state", "detections", "faults", "trials"]}),
+    );
+    let (placements, _) = scene(c);
+    call(c, "enable", json!({}));
+    for (x, z) in placements {
+        call(c, "move", json!({"x_m": x, "z_m": z}));
+        wait_state(c, "holding");
+        call(c, "mark", json!({}));
+        let e = wait_event(c, "a mark's result", |e| {
+            e["event"] == "detection" && (e["kind"] == "located" || e["kind"] == "missed")
+        });
+        assert_eq!(e["kind"], "located", "a seed mark found no pulse: {e}");
+        wait_state(c, "holding");
+    }
+}
