@@ -201,6 +201,7 @@ impl Validate for control::tracker::beatslide::BeatSlideParams {
         v.positive("curvature_prior_per_m", self.curvature_prior_per_m);
         v.positive("curvature_walk", self.curvature_walk);
         v.in_range("fix_floor_m", self.fix_floor_m, 1e-6, 0.01);
+        v.in_range("tilt_deflection", self.tilt_deflection, 0.0, 0.2);
         v.in_range("return_speed_m_s", self.return_speed_m_s, 1e-4, 0.1);
     }
 }

@@ -18,6 +18,7 @@ use super::drag::Drag;
 use super::history::History;
 use super::params::BeatSlideParams;
 use super::path_filter::{Observation, PathFilter, PathFilterError, PathFilterSettings};
+use crate::classify::{ClassifyParams, Kind, Window as ClassifyWindow};
 use crate::frames::SurfacePoint;
 use crate::sensor::ArrayGeometry;
 use crate::signal::beat_clock::{BeatClock, BeatClockSettings};
@@ -62,6 +63,8 @@ const USUAL_SNR_FRACTION: f64 = 0.5;
 const LATE_FACTOR: f64 = 4.0;
 const MIN_LATE_FRACTION: f64 = 0.08;
 const INITIAL_LATE_FRACTION: f64 = 0.05;
+/// ... and weaker than this fraction of the usual SNR.
+const SPOILED_SNR_FRACTION: f64 = 0.75;
 
 /// A fix this surprising (normalized innovation squared) slows the slide by this factor.
 const SURPRISE_NIS: f64 = 4.0;
@@ -97,6 +100,8 @@ pub enum Miss {
     Blind,
     #[error("went back to the last fix too often without progress")]
     NoProgress,
+    #[error("neither the beat clock nor the window's coherent pattern shows an artery")]
+    Untimed,
     #[error("no believed sensor position in the window")]
     NoPosition,
     #[error("no path model")]
@@ -166,6 +171,7 @@ pub struct BeatSlide {
     history: History,
     noise: NoiseLevel,
     search: PulseSearch,
+    untimed: ClassifyWindow,
     pulse: Option<Pulse>,
     spatial: SpatialPrior,
     drag: Drag,
@@ -225,6 +231,7 @@ impl BeatSlide {
             history: History::new(capacity),
             noise: NoiseLevel::new(capacity),
             search: PulseSearch::new(capacity),
+            untimed: ClassifyWindow::new(capacity),
             pulse: None,
             spatial: SpatialPrior {
                 element: 4.5,
@@ -610,10 +617,22 @@ impl BeatSlide {
         if t - from + 1e-9 < len_s || !self.events.has_room_for(EVENTS_PER_ANALYSIS) {
             return;
         }
-        match self.analyse(from).map_err(Miss::from).and_then(|fix| {
+        let timed = self.analyse(from).map_err(Miss::from).and_then(|fix| {
             let point = self.accept(&fix)?;
             Ok((fix, point))
-        }) {
+        });
+        // A beat the clock could not time (irregular beats): the pulse's spatial pattern
+        // without any timing, from the window's coherent part (control::classify).
+        let fix = match timed {
+            Err(Miss::Weak { .. } | Miss::Timing { .. }) => {
+                self.untimed_fix(from).and_then(|fix| {
+                    let point = self.accept(&fix)?;
+                    Ok((fix, point))
+                })
+            }
+            other => other,
+        };
+        match fix {
             Ok((fix, point)) => {
                 self.after_fix(&fix, point, input.sensor, t);
                 return;
@@ -634,6 +653,56 @@ impl BeatSlide {
                 speed_m_s,
             };
         }
+    }
+
+    /// A fix from the window's coherent spatial pattern, with no timing model: the
+    /// leading eigenvector of the elements' covariance (`control::classify`'s features),
+    /// when the classifier calls the window an artery. Its sign is the one the kernel fits
+    /// better.
+    fn untimed_fix(&mut self, from_s: f64) -> Result<BeatFix, Miss> {
+        let window = self.history.since(from_s);
+        let sensor = window.mean_sensor().ok_or(Miss::NoPosition)?;
+        let (Some(t0), Some(t1)) = (window.first_t_s(), window.last_t_s()) else {
+            return Err(Miss::NoPosition);
+        };
+        self.untimed.clear();
+        for f in window.frames() {
+            // Frames in the history are finite; a refusal only shortens the window.
+            let _ = self.untimed.push(f);
+        }
+        let params = ClassifyParams {
+            noise_sd_n: self.geometry.noise_sd_n,
+            ..ClassifyParams::default()
+        };
+        let class = self
+            .untimed
+            .classify(&params, None)
+            .map_err(|_| Miss::Beat(BeatMiss::Empty))?;
+        if !matches!(class.kind, Kind::Artery | Kind::ArteryStenosisSuspected) {
+            return Err(Miss::Untimed);
+        }
+        let f = class.features;
+        // Each element's coherent swing has a standard error of about 2√2 σ/√n.
+        let se = 2.0 * std::f64::consts::SQRT_2 * f.noise_sd_n / (f.frames.max(1) as f64).sqrt();
+        let flipped = f.swing_n.map(|v| -v);
+        let kernel = match (
+            fit_kernel(&f.swing_n, se, &self.geometry),
+            fit_kernel(&flipped, se, &self.geometry),
+        ) {
+            (Ok(a), Ok(b)) if b.chi2 < a.chi2 => b,
+            (Ok(a), _) => a,
+            (Err(_), Ok(b)) => b,
+            (Err(e), Err(_)) => return Err(e.into()),
+        };
+        Ok(BeatFix {
+            t_mid_s: 0.5 * (t0 + t1),
+            late_s: 0.0,
+            kernel,
+            sensor,
+            lag_dir: window.mean_lag(),
+            noise_sd_n: f.noise_sd_n,
+            aligned: Waveform::zeros(),
+        })
     }
 
     fn analyse(&mut self, from_s: f64) -> Result<BeatFix, BeatMiss> {
@@ -672,14 +741,15 @@ impl BeatSlide {
         if k.at_edge || !k.offset_se_m.is_finite() {
             return Err(Miss::AtEdge { element: k.element });
         }
-        // A beat far off the clock, for a clock that usually keeps time, is a window spoiled
-        // by something else (the artery sweeping across the array, a lump).
+        // A beat far off the clock, for a clock that usually keeps time, and weaker than
+        // usual, is a window spoiled by something else (the artery sweeping across the
+        // array, a lump). A clear beat off the clock is the heart changing its rate.
         let period = self.window_len_s() / self.beats_per_fix as f64;
         let usual_late = self.pulse.map_or(0.0, |p| p.late_rms_s);
         let late_limit = (LATE_FACTOR * usual_late)
             .max(MIN_LATE_FRACTION * period)
             .min(0.95 * MAX_DELAY_FRACTION * period);
-        if fix.late_s.abs() > late_limit {
+        if fix.late_s.abs() > late_limit && k.snr() < SPOILED_SNR_FRACTION * usual {
             return Err(Miss::Timing { late_s: fix.late_s });
         }
         let observation = Observation {
@@ -860,13 +930,29 @@ impl BeatSlide {
         match self.state {
             State::Sliding {
                 target, speed_m_s, ..
-            } => MotionCommand::MoveTo { target, speed_m_s },
+            } => MotionCommand::MoveTo {
+                target: self.belief_from_sensor(target),
+                speed_m_s,
+            },
             State::Returning { target, .. } => MotionCommand::MoveTo {
-                target,
+                target: self.belief_from_sensor(target),
                 speed_m_s: self.params.return_speed_m_s,
             },
             _ => MotionCommand::Hold,
         }
+    }
+
+    /// Where the sensor is for a believed position: pushed outward from the point below
+    /// the pivot (the tissue origin) by the tilt deflection.
+    fn sensor_from_belief(&self, believed: SurfacePoint) -> SurfacePoint {
+        let g = 1.0 + self.params.tilt_deflection;
+        SurfacePoint::new(believed.x_m * g, believed.z_m * g)
+    }
+
+    /// The believed position that puts the sensor at `sensor`.
+    fn belief_from_sensor(&self, sensor: SurfacePoint) -> SurfacePoint {
+        let g = 1.0 + self.params.tilt_deflection;
+        SurfacePoint::new(sensor.x_m / g, sensor.z_m / g)
     }
 }
 
@@ -1082,6 +1168,14 @@ impl Tracker for BeatSlide {
     }
 
     fn step(&mut self, input: &TrackerInput<'_>) -> TrackerOutput {
+        // From here on every position is where the sensor truly is (as far as the tilt
+        // model knows); the moves are turned back into the robot's belief in `motion`.
+        let compensated = TrackerInput {
+            frame: input.frame,
+            sensor: self.sensor_from_belief(input.sensor),
+            settled: input.settled,
+        };
+        let input = &compensated;
         let t_s = input.frame.t_s;
         if let Some(reason) = self.pending_end.take() {
             self.finish(reason, t_s);

@@ -66,6 +66,14 @@ pub struct BeatSlideParams {
     /// Added in quadrature to each fix's standard error, m: what the fit cannot see
     /// (the sensor's compliance, the artery moving on the array within a window).
     pub fix_floor_m: f64,
+    /// How far the sensor sits outward of the robot's belief per metre of its distance from
+    /// the point of the surface below the pivot (the tissue frame's origin): the contact
+    /// force less the added mass's weight, acting across a tilted rod, bends it and pushes
+    /// the incision aside (rod and incision compliance × net load ÷ the pivot's height above
+    /// the surface). Dimensionless; 0 for a rigid rod. A calibration of the rig, like
+    /// `lag_prior_m`: unlike the lag it cannot be learned on line, since it scales the whole
+    /// path about the pivot and a scaled path is as smooth as the true one.
+    pub tilt_deflection: f64,
     /// Speed of the moves back to the last fix, m/s.
     pub return_speed_m_s: f64,
 }
@@ -82,7 +90,7 @@ impl Default for BeatSlideParams {
             mark_max_window_s: 40.0,
             search_window_s: 4.0,
             fix_snr: 5.0,
-            target_snr: 10.0,
+            target_snr: 7.0,
             max_beats_per_fix: 12,
             max_speed_m_s: 0.016,
             max_travel_per_fix_m: 0.025,
@@ -98,6 +106,8 @@ impl Default for BeatSlideParams {
             lag_prior_sd_m: 0.002,
             lag_walk: 0.01,
             fix_floor_m: 0.001,
+            // The seed's bench as simulated (docs/tracker-beatslide.md, "Tilt deflection").
+            tilt_deflection: 0.027,
             return_speed_m_s: 0.01,
         }
     }
