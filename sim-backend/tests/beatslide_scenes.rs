@@ -90,6 +90,19 @@ fn seed_radial_wrist_is_not_felt_and_ends_cleanly() {
 // Where it fails: the tightest radius and the weakest pulse.
 
 #[test]
+fn tight_arc_20_fails_without_wandering() {
+    // A 20 mm radius turns the artery across the 18 mm array within one fix: it is not
+    // held (errors of millimetres), but every point stays within the array's reach.
+    let (_, t) = run("tight-arc-20");
+    assert!(t.lateral_error_m.max < 0.02, "{}", summary(&t));
+}
+
+#[test]
+fn tight_arc_30() {
+    assert_tracks("tight-arc-30", 1.0e-3, 60.0);
+}
+
+#[test]
 fn tight_arc_60() {
     assert_tracks("tight-arc-60", 1.0e-3, 60.0);
 }

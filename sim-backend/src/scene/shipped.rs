@@ -43,6 +43,14 @@ pub const SHIPPED: &[(&str, &str)] = &[
         include_str!("../../../config/scenes/robust-occlusion.ron"),
     ),
     (
+        "tight-arc-20.ron",
+        include_str!("../../../config/scenes/tight-arc-20.ron"),
+    ),
+    (
+        "tight-arc-30.ron",
+        include_str!("../../../config/scenes/tight-arc-30.ron"),
+    ),
+    (
         "tight-arc-40.ron",
         include_str!("../../../config/scenes/tight-arc-40.ron"),
     ),
@@ -87,6 +95,8 @@ const NAMES: &[&str] = &[
     "robust-lumps.ron",
     "robust-noise-doubled.ron",
     "robust-occlusion.ron",
+    "tight-arc-20.ron",
+    "tight-arc-30.ron",
     "tight-arc-40.ron",
     "tight-arc-50.ron",
     "tight-arc-60.ron",
