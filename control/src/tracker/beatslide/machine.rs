@@ -54,6 +54,9 @@ const KNOWN_PERIOD_RANGE: f64 = 0.3;
 /// Slowest sliding: the travel per fix is never cut below this, m.
 const MIN_TRAVEL_PER_FIX_M: f64 = 0.001;
 
+/// The target is never nearer than this along the predicted path, m.
+const MIN_LOOKAHEAD_M: f64 = 0.02;
+
 /// A fix weaker than this fraction of the artery's usual SNR is refused.
 const USUAL_SNR_FRACTION: f64 = 0.5;
 
@@ -559,7 +562,10 @@ impl BeatSlide {
         }
         let travel = travel.max(MIN_TRAVEL_PER_FIX_M);
         let speed = (travel / window_s).min(self.speed_cap_m_s);
-        let s_target = (s_now + 2.0 * travel).min(self.params.max_blind_m);
+        // Aim at least `MIN_LOOKAHEAD_M` ahead even when the steps are short (slow speed
+        // settings): the motion then stays along the artery, so the lag, still uncertain
+        // early on, trails along the path instead of across it.
+        let s_target = (s_now + (2.0 * travel).max(MIN_LOOKAHEAD_M)).min(self.params.max_blind_m);
         let target = filter.predict(s_target).point;
         target.is_finite().then_some((target, speed))
     }
