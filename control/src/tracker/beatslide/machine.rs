@@ -1005,6 +1005,13 @@ fn check_params(p: &BeatSlideParams, fs: f64) -> Result<(), InvalidParams> {
     ] {
         positive(name, v)?;
     }
+    // A negative deflection of a whole unit would map every position onto the origin.
+    if !(0.0..0.5).contains(&p.tilt_deflection) {
+        return Err(InvalidParams(format!(
+            "tilt_deflection must be in [0, 0.5), got {}",
+            p.tilt_deflection
+        )));
+    }
     if p.min_period_s >= p.max_period_s {
         return Err(InvalidParams(format!(
             "min_period_s {} must be below max_period_s {}",
@@ -1211,6 +1218,46 @@ impl Tracker for BeatSlide {
         TrackerOutput {
             motion: self.motion(),
             event: self.events.pop(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tracker(tilt: f64) -> Result<BeatSlide, InvalidParams> {
+        let params = BeatSlideParams {
+            tilt_deflection: tilt,
+            ..BeatSlideParams::default()
+        };
+        BeatSlide::new(params, ArrayGeometry::default())
+    }
+
+    #[test]
+    fn tilt_deflection_pushes_the_sensor_outward_from_below_the_pivot() {
+        let t = tracker(0.027).unwrap();
+        // 100 mm from the point below the pivot: 2.7 mm further out, along the radius.
+        let s = t.sensor_from_belief(SurfacePoint::new(0.06, -0.08));
+        assert!((s.x_m - 0.06 * 1.027).abs() < 1e-15, "{s:?}");
+        assert!((s.z_m + 0.08 * 1.027).abs() < 1e-15, "{s:?}");
+        // The moves are mapped back: commanding the belief puts the sensor on the target.
+        let target = SurfacePoint::new(-0.11, 0.02);
+        let back = t.sensor_from_belief(t.belief_from_sensor(target));
+        assert!((back.x_m - target.x_m).abs() < 1e-15 && (back.z_m - target.z_m).abs() < 1e-15);
+        // Below the pivot nothing moves; with no deflection nothing moves anywhere.
+        let origin = t.sensor_from_belief(SurfacePoint::new(0.0, 0.0));
+        assert_eq!((origin.x_m, origin.z_m), (0.0, 0.0));
+        let rigid = tracker(0.0).unwrap();
+        let p = SurfacePoint::new(0.05, 0.01);
+        assert_eq!(rigid.sensor_from_belief(p), p);
+    }
+
+    #[test]
+    fn bad_tilt_deflection_is_refused() {
+        for bad in [-0.01, 0.5, f64::NAN, f64::INFINITY] {
+            let e = tracker(bad).err().map(|e| e.0).unwrap_or_default();
+            assert!(e.contains("tilt_deflection"), "{bad}: {e}");
         }
     }
 }
