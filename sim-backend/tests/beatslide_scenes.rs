@@ -75,16 +75,15 @@ fn seed_s_curve() {
 }
 
 #[test]
-fn seed_radial_wrist_is_not_felt_and_ends_cleanly() {
-    // The simulated radial pulse is a few mN under 12 mN of noise per element: below the
-    // weakest pulse beatslide feels (weak-pulse-3kpa). The marks give up without moving.
-    let (s, t) = run("seed-radial-wrist");
-    assert_eq!(t.end_reason, "not_seeded", "{}", summary(&t));
-    let start = s.placements[0];
-    for (_, _, truth) in &t.sensor_track {
-        let d = (truth.x_m - start.x_m).hypot(truth.z_m - start.z_m);
-        assert!(d < 0.03, "the sensor moved {d} m while marking");
-    }
+fn seed_radial_wrist() {
+    // The applanated radial artery swings an element by about 15 mN under 12 mN of noise:
+    // felt at both placements (long windows at rest), then followed a few beats per fix.
+    let (_, t) = run("seed-radial-wrist");
+    let why = summary(&t);
+    assert_ne!(t.end_reason, "not_seeded", "{why}");
+    // Its 28 mm of track take two or three fixes of several beats each.
+    assert!(t.lateral_error_m.points >= 2, "{why}");
+    assert!(t.lateral_error_m.max < 3.0e-3, "{why}");
 }
 
 // Where it fails: the tightest radius and the weakest pulse.
@@ -179,9 +178,20 @@ fn robust_occlusion_stops_lost_at_rest_near_the_artery() {
     let why = summary(&t);
     assert_eq!(t.end_reason, "lost", "{why}");
     assert!(!t.completed, "{why}");
-    // It followed the artery while the pulse lasted ...
+    // It followed the artery while the pulse was clear (the first half: the pulse goes as
+    // the lumen radius squared, a quarter of it at half way) ...
     assert!(t.tracked_length_m > 0.05, "{why}");
-    assert!(t.lateral_error_m.sd < 1.0e-3, "{why}");
+    let clear: Vec<f64> = t
+        .located
+        .iter()
+        .filter(|p| !p.seed && p.along_path_m < 0.13)
+        .map(|p| p.lateral_error_m)
+        .collect();
+    assert!(clear.len() >= 5, "{why}");
+    let worst = clear.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+    assert!(worst < 2.0e-3, "worst {worst} m in the first half; {why}");
+    // ... and as it faded no point lay beyond the array's reach.
+    assert!(t.lateral_error_m.max < 0.009, "{why}");
     // ... and never wandered: the true sensor stays on the artery (the array's reach) and
     // ends within the blind-travel bound of the last point it located.
     let path = ArteryPath::from_spec(&s.artery.path).expect("the scene's path");

@@ -1110,7 +1110,10 @@ impl Tracker for BeatSlide {
                 "length_m must be positive, got {length_m}"
             )));
         }
-        let spacing_m = self.seed_points[n - 2].distance_to(&self.seed_points[n - 1]);
+        // How far apart the surgeon placed the sensor: the located points can be closer
+        // (the first mark's lag is unknown, as its approach was not seen), and their
+        // uncertainty is in the filter's observations.
+        let spacing_m = self.seed_sensors[n - 2].distance_to(&self.seed_sensors[n - 1]);
         let settings = PathFilterSettings {
             offset_prior_m: 0.002,
             slope_prior: 0.3,
