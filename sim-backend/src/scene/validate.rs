@@ -236,6 +236,7 @@ impl Validate for PulseSpec {
                 heart_rate_hz,
                 interval_sd_s,
                 pressure_sd_fraction,
+                rate_change,
             } => {
                 v.in_range("systolic_pa", systolic_pa, 0.0, 1.0e5);
                 v.in_range("diastolic_pa", diastolic_pa, 0.0, 1.0e5);
@@ -247,6 +248,13 @@ impl Validate for PulseSpec {
                 v.in_range("heart_rate_hz", heart_rate_hz, 0.3, 4.0);
                 v.in_range("interval_sd_s", interval_sd_s, 0.0, 0.5);
                 v.in_range("pressure_sd_fraction", pressure_sd_fraction, 0.0, 0.5);
+                if let Some(c) = rate_change {
+                    v.at("rate_change", |v| {
+                        v.in_range("to_hz", c.to_hz, 0.3, 4.0);
+                        v.in_range("start_s", c.start_s, 0.0, 1.0e5);
+                        v.in_range("duration_s", c.duration_s, 0.0, 1.0e5);
+                    });
+                }
             }
             PulseSpec::Absent => {}
         }
