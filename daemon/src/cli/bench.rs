@@ -13,6 +13,8 @@
 //! setting in mm/s after `@`: `beatslide@20` runs `beatslide` with its speed set to
 //! 20 mm/s (`TrackerParams::set_speed`).
 
+use crate::cli::stdout::outln;
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -148,7 +150,7 @@ fn run_inner(args: &Args) -> Result<(), String> {
     }
     if args.json {
         let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
-        println!("{text}");
+        outln!("{text}");
     } else {
         print_table(&report);
     }
@@ -385,13 +387,13 @@ fn glob_match(pattern: &str, text: &str) -> bool {
 }
 
 fn print_table(report: &Report) {
-    println!(
+    outln!(
         "{} trials per row, seeds {} to {}",
         report.trials,
         report.seed,
         report.seed + u64::from(report.trials) - 1
     );
-    println!(
+    outln!(
         "{:<20} {:<16} {:>6} {:>8} {:>8} {:>8} {:>7} {:>7} {:>8} {:>6}",
         "scene",
         "tracker",
@@ -405,7 +407,7 @@ fn print_table(report: &Report) {
         "back"
     );
     for r in &report.rows {
-        println!(
+        outln!(
             "{:<20} {:<16} {:>5.0}% {:>8.2} {:>8.2} {:>8.2} {:>7.1} {:>7} {:>8.1} {:>6.2}",
             r.scene,
             r.tracker,
