@@ -255,36 +255,14 @@ impl Kernel {
     /// distance `u0` from the centre, its unit normal (`ga`, `gb`) in the rectangle's axes
     /// and the half-sizes. Closed form along the faster axis, Gauss-Legendre along the other.
     pub fn rectangle_integral(&self, u0: f64, ga: f64, gb: f64, half_a: f64, half_b: f64) -> f64 {
-        const NODES: [f64; 5] = [
-            0.0,
-            -0.538_469_310_105_683_1,
-            0.538_469_310_105_683_1,
-            -0.906_179_845_938_664,
-            0.906_179_845_938_664,
-        ];
-        const WEIGHTS: [f64; 5] = [
-            0.568_888_888_888_888_9,
-            0.478_628_670_499_366_5,
-            0.478_628_670_499_366_5,
-            0.236_926_885_056_189_1,
-            0.236_926_885_056_189_1,
-        ];
-        let (g_fast, half_fast, g_slow, half_slow) = if ga.abs() >= gb.abs() {
-            (ga, half_a, gb, half_b)
-        } else {
-            (gb, half_b, ga, half_a)
-        };
-        if g_fast.abs() < 1e-15 {
-            return 0.0;
-        }
-        let mut sum = 0.0;
-        for (x, w) in NODES.iter().zip(WEIGHTS) {
-            let u = u0 + g_slow * x * half_slow;
-            let a = self.antiderivative_m(u + g_fast * half_fast);
-            let b = self.antiderivative_m(u - g_fast * half_fast);
-            sum += w * (a - b) / g_fast;
-        }
-        sum * half_slow
+        crate::physics::kernel::integrate_over_rectangle(
+            |u| self.antiderivative_m(u),
+            u0,
+            ga,
+            gb,
+            half_a,
+            half_b,
+        )
     }
 }
 

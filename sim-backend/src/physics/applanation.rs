@@ -50,22 +50,6 @@ fn cumulative(u: f64, b: f64, t: f64) -> f64 {
     (g(u + b, t) - g(u - b, t) + PI * b) / PI
 }
 
-/// Five-point Gauss–Legendre nodes and weights on [-1, 1].
-const GL_NODES: [f64; 5] = [
-    0.0,
-    -0.538_469_310_105_683_1,
-    0.538_469_310_105_683_1,
-    -0.906_179_845_938_664,
-    0.906_179_845_938_664,
-];
-const GL_WEIGHTS: [f64; 5] = [
-    0.568_888_888_888_888_9,
-    0.478_628_670_499_366_5,
-    0.478_628_670_499_366_5,
-    0.236_926_885_056_189_1,
-    0.236_926_885_056_189_1,
-];
-
 /// Force per pascal of lumen pressure on a rectangle, m² (N/Pa), with the arguments of
 /// `physics::kernel::rectangle_integral`: the artery's signed distance `u0` from the centre,
 /// its unit normal (`ga`, `gb`) in the rectangle's axes, and the half-sizes.
@@ -78,22 +62,7 @@ pub fn rectangle_integral(
     b: f64,
     t: f64,
 ) -> f64 {
-    let (g_fast, half_fast, g_slow, half_slow) = if ga.abs() >= gb.abs() {
-        (ga, half_a, gb, half_b)
-    } else {
-        (gb, half_b, ga, half_a)
-    };
-    if g_fast.abs() < 1e-15 {
-        return 0.0;
-    }
-    let mut sum = 0.0;
-    for (x, w) in GL_NODES.iter().zip(GL_WEIGHTS) {
-        let u = u0 + g_slow * x * half_slow;
-        let hi = cumulative(u + g_fast * half_fast, b, t);
-        let lo = cumulative(u - g_fast * half_fast, b, t);
-        sum += w * (hi - lo) / g_fast;
-    }
-    sum * half_slow
+    super::kernel::integrate_over_rectangle(|u| cumulative(u, b, t), u0, ga, gb, half_a, half_b)
 }
 
 #[cfg(test)]

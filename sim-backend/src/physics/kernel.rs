@@ -57,6 +57,20 @@ const GL_WEIGHTS: [f64; 5] = [
 /// first (second) axis changes the distance by `ga` (`gb`), with `ga² + gb² = 1` (the unit
 /// normal of the tube expressed in the rectangle's axes; the crossing angle lives here).
 pub fn rectangle_integral(u0: f64, ga: f64, gb: f64, half_a: f64, half_b: f64, h: f64) -> f64 {
+    integrate_over_rectangle(|u| g(u, h), u0, ga, gb, half_a, half_b)
+}
+
+/// Integral over a rectangle of any kernel that depends only on the signed distance `u` from
+/// the tube, given its antiderivative in `u`; the arguments are those of
+/// [`rectangle_integral`]. The analytic, applanation and FEM kernels all share it.
+pub fn integrate_over_rectangle(
+    antiderivative: impl Fn(f64) -> f64,
+    u0: f64,
+    ga: f64,
+    gb: f64,
+    half_a: f64,
+    half_b: f64,
+) -> f64 {
     // Integrate in closed form along the axis the distance changes fastest along; Gauss in
     // the other, where the integrand is smooth.
     let (g_fast, half_fast, g_slow, half_slow) = if ga.abs() >= gb.abs() {
@@ -69,9 +83,10 @@ pub fn rectangle_integral(u0: f64, ga: f64, gb: f64, half_a: f64, half_b: f64, h
     }
     let mut sum = 0.0;
     for (x, w) in GL_NODES.iter().zip(GL_WEIGHTS) {
-        let t = x * half_slow;
-        let u = u0 + g_slow * t;
-        let inner = (g(u + g_fast * half_fast, h) - g(u - g_fast * half_fast, h)) / g_fast;
+        let u = u0 + g_slow * x * half_slow;
+        let inner = (antiderivative(u + g_fast * half_fast)
+            - antiderivative(u - g_fast * half_fast))
+            / g_fast;
         sum += w * inner;
     }
     sum * half_slow
