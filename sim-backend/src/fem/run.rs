@@ -187,8 +187,9 @@ fn solve_linear(model: &ModelFile, mesh: &Mesh) -> Result<(Vec<TimeResult>, Timi
             // Linear and the supports do not change: superpose the platen and a unit lumen
             // pressure, solved with one factorization.
             let c = lm.factor(&fixed)?;
-            let u_platen = c.solve(&zeros, &pres)?;
-            let u_unit = c.solve(&unit, &zeros)?;
+            let mut u = c.solve_many(&[(&zeros, &pres), (&unit, &zeros)])?;
+            let u_unit = u.pop().ok_or(SolveError::NonFinite)?;
+            let u_platen = u.pop().ok_or(SolveError::NonFinite)?;
             let s_platen = lm.top_stresses(&u_platen);
             let s_unit = lm.top_stresses(&u_unit);
             for &t in &model.times_s {
