@@ -257,6 +257,12 @@ impl Pattern {
         self.row_idx.len()
     }
 
+    /// Value slots of node `a`'s diagonal 2x2 block: (x, x), (y, x), (y, y).
+    pub fn node_block(&self, a: usize) -> [usize; 3] {
+        let c = self.col_ptr[2 * a];
+        [c, c + 1, self.col_ptr[2 * a + 1]]
+    }
+
     /// Assemble element matrices (upper triangles, 36 values each) into a value array, in
     /// parallel: each thread owns a range of nodes, i.e. a contiguous range of columns, and
     /// adds only the entries that land there.

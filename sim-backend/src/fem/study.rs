@@ -67,12 +67,13 @@ pub const TABLE1_STENOTIC_PA: [f64; 4] = [6281.0, 6322.0, 6400.0, 6432.0];
 pub struct StudyOptions {
     /// Extra refinement levels.
     pub refine: u32,
-    /// Solve the paper-001 models in finite strain (neo-Hookean) instead of linear.
+    /// Solve the models in finite strain (neo-Hookean; the finger by a penalty on the
+    /// deformed surface) instead of linear.
     pub finite_strain: bool,
 }
 
 fn apply(mut m: ModelFile, o: &StudyOptions) -> ModelFile {
-    if o.finite_strain && matches!(m.load, Load::Platen { .. }) {
+    if o.finite_strain {
         m.kinematics = Kinematics::FiniteStrain { steps: 8 };
     }
     m
