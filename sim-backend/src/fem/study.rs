@@ -5,7 +5,7 @@
 use rayon::prelude::*;
 
 use super::contact::Tip;
-use super::model::{Kinematics, Load, ModelFile};
+use super::model::{Kinematics, Load, LumenPressure, ModelFile};
 use super::run::{FemError, ModelRun, run_model};
 
 /// The shipped model files (config/fem/).
@@ -122,6 +122,36 @@ pub fn seed_001(o: &StudyOptions) -> Result<Seed001, StudyError> {
         "seed-001-healthy-artery.ron",
         "seed-001-stenotic-artery.ron",
     ])?;
+    Ok(Seed001 {
+        runs: run_all(models, o)?,
+    })
+}
+
+/// Paper 001 Fig. 3, the "2-D tactile image": the four models' top von Mises over x and
+/// time, sampled `samples` times over one pulse period (systole in the middle). Linear
+/// models superpose two solves, so this costs one factorization per model; with
+/// `finite_strain` every sample is a Newton solve.
+pub fn seed_001_image(o: &StudyOptions, samples: usize) -> Result<Seed001, StudyError> {
+    let mut models = load_all(&[
+        "seed-001-tissue.ron",
+        "seed-001-tumour.ron",
+        "seed-001-healthy-artery.ron",
+        "seed-001-stenotic-artery.ron",
+    ])?;
+    let period_s = models
+        .iter()
+        .find_map(|m| match m.lumen {
+            Some(LumenPressure::Pulse { period_s, .. }) => Some(period_s),
+            _ => None,
+        })
+        .unwrap_or(0.85);
+    let n = samples.max(2);
+    let times: Vec<f64> = (0..n)
+        .map(|k| period_s * k as f64 / (n - 1) as f64)
+        .collect();
+    for m in &mut models {
+        m.times_s = times.clone();
+    }
     Ok(Seed001 {
         runs: run_all(models, o)?,
     })
