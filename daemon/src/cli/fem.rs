@@ -217,7 +217,7 @@ fn print_seed_002(s: &Seed002) {
             );
         }
     }
-    println!("\ntip shapes at 3 mm (systole): peak and von Mises over the artery");
+    println!("\ntip shapes at 3 mm (systole, linear): peak and von Mises over the artery");
     for r in &s.tips {
         if let Some(t) = r.times.first() {
             println!(

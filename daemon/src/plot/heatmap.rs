@@ -142,7 +142,7 @@ fn draw<DB: DrawingBackend>(
         .titled(&fig.title, ("sans-serif", 24))
         .map_err(|e| err(&e))?;
     let (w, _) = root.dim_in_pixel();
-    let (main, bar) = root.split_horizontally(w.saturating_sub(130));
+    let (main, bar) = root.split_horizontally(w.saturating_sub(150));
     let rows = fig.panels.len().div_ceil(fig.columns);
     let areas = main.split_evenly((rows, fig.columns));
     for (p, area) in fig.panels.iter().zip(&areas) {
@@ -178,8 +178,9 @@ fn draw<DB: DrawingBackend>(
     let mut ctx = ChartBuilder::on(&bar)
         .margin_top(40)
         .margin_bottom(50)
+        .margin_left(20)
         .margin_right(10)
-        .y_label_area_size(70)
+        .y_label_area_size(75)
         .build_cartesian_2d(0.0..1.0, lo..hi)
         .map_err(|e| err(&e))?;
     ctx.configure_mesh()

@@ -180,7 +180,7 @@ pub struct Seed002 {
     /// tissue, tumour, artery under the base finger.
     pub base: Vec<ModelRun>,
     pub sweeps: Vec<Sweep>,
-    /// The artery under the four tips at 3 mm (one run per tip).
+    /// The artery under the four tips at 3 mm (one run per tip), always linear.
     pub tips: Vec<ModelRun>,
 }
 
@@ -355,7 +355,14 @@ pub fn seed_002(o: &StudyOptions) -> Result<Seed002, StudyError> {
             m
         })
         .collect();
-    let tips = run_all(tip_models, o)?;
+    // The rectangular tip's sharp corner does not converge in finite strain (the elements
+    // under the corner collapse at about a third of 3 mm; docs/fem.md), so the tip
+    // comparison stays linear.
+    let linear = StudyOptions {
+        finite_strain: false,
+        ..*o
+    };
+    let tips = run_all(tip_models, &linear)?;
     Ok(Seed002 { base, sweeps, tips })
 }
 
