@@ -159,6 +159,7 @@ impl FingerPenalty {
 
     /// Add the linearized penalty of nodes flagged in `extra` (mesh.top order) that are not
     /// in contact: force ε g ∇g and stiffness ε ∇g ∇gᵀ, the branch they are about to enter.
+    #[allow(clippy::too_many_arguments)]
     pub fn add_closing(
         &self,
         mesh: &Mesh,

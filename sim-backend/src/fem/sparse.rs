@@ -169,6 +169,13 @@ impl Pattern {
             col_ptr.push(c0);
             col_ptr.push(c0 + 1 + 2 * upper);
         }
+        if col_ptr[n] > u32::MAX as usize {
+            // Value slots are u32.
+            return Err(SolveError::Factor(format!(
+                "{} stiffness entries is too many",
+                col_ptr[n]
+            )));
+        }
         let mut row_idx = vec![0usize; col_ptr[n]];
         row_idx
             .par_chunks_mut(1024)
