@@ -9,6 +9,7 @@ pub mod burst_log;
 pub mod can;
 pub mod clock;
 pub mod hardware;
+pub mod programs;
 pub mod pty;
 pub mod tactile;
 

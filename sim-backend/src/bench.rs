@@ -17,9 +17,9 @@ use crate::error::SimError;
 use crate::physics::contact::{ContactState, TissueContact};
 use crate::physics::joints::{Encoders, JointDynamics};
 use crate::physics::rod::{GRAVITY_M_S2, Rod};
-use crate::physics::tactile::{Contact, TactileModel};
+use crate::physics::tactile::{Attitude, Contact, TactileModel};
 use crate::random::{Stream, standard_normal, stream, stream_seed, uniform_open};
-use crate::scene::{ArteryPath, PressureKernel, PulseSource, RobotSpec, Scene};
+use crate::scene::{ArteryPath, PinAxis, PressureKernel, PulseSource, RobotSpec, Scene};
 
 /// Where the sensor truly is and what it presses on, at one instant.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,6 +71,47 @@ struct DynamicArm {
     sensor: SurfacePoint,
     rigid_sensor: SurfacePoint,
     height_m: f64,
+    /// The pin joint, when the scene models it, and the body's radius (the pin is on the
+    /// body's axis, this far above the element line).
+    pin: Option<PinAxis>,
+    body_radius_m: f64,
+    attitude: Attitude,
+    /// The contact patch's centre when it differs from the element line's.
+    patch_centre: Option<SurfacePoint>,
+    incision: Option<IncisionHysteresis>,
+}
+
+/// The incision's dry-friction element, in parallel with its lateral spring (tissue plane).
+#[derive(Debug, Clone, Copy)]
+struct IncisionHysteresis {
+    stiffness_n_per_m: f64,
+    slip_n: f64,
+    /// Where the friction element last stuck (the pivot's shift at which it carries nothing).
+    anchor_m: [f64; 2],
+    /// The force it carries now.
+    force_n: [f64; 2],
+}
+
+impl IncisionHysteresis {
+    /// The pivot moved to `shift`: the element follows elastically until it slips.
+    fn update(&mut self, shift: [f64; 2]) {
+        let k = self.stiffness_n_per_m;
+        let trial = [
+            k * (shift[0] - self.anchor_m[0]),
+            k * (shift[1] - self.anchor_m[1]),
+        ];
+        let size = trial[0].hypot(trial[1]);
+        if size > self.slip_n && size > 0.0 {
+            let scale = self.slip_n / size;
+            self.force_n = [trial[0] * scale, trial[1] * scale];
+            self.anchor_m = [
+                shift[0] - self.force_n[0] / k,
+                shift[1] - self.force_n[1] / k,
+            ];
+        } else {
+            self.force_n = trial;
+        }
+    }
 }
 
 /// The simulated bench.
@@ -287,14 +328,13 @@ impl Bench {
                 Contact {
                     normal_n: a.normal_n,
                     indentation_m: a.indentation_m,
+                    attitude: a.attitude,
+                    patch_centre: a.patch_centre,
                 },
             ),
             Arm::Ideal { sensor } => (
                 *sensor,
-                Contact {
-                    normal_n: self.ideal_normal_n,
-                    indentation_m: self.ideal_indentation_m,
-                },
+                Contact::level(self.ideal_normal_n, self.ideal_indentation_m),
             ),
         }
     }
@@ -396,6 +436,14 @@ impl DynamicArm {
         // Mechanical stops a little outside the configured software limits.
         let stops = [0, 1, 2].map(|i| (limits.min_rad[i] - 0.05, limits.max_rad[i] + 0.05));
         let masses = spec.masses.unwrap_or(config.robot.link_masses);
+        let incision = scene.pivot.and_then(|p| {
+            Some(IncisionHysteresis {
+                stiffness_n_per_m: p.lateral_stiffness_n_per_m?,
+                slip_n: p.hysteresis_slip_n?,
+                anchor_m: [0.0; 2],
+                force_n: [0.0; 2],
+            })
+        });
         let mut arm = Self {
             geometry,
             pivot: Point3::from(pivot_geometry.pivot_in_base_m),
@@ -415,6 +463,11 @@ impl DynamicArm {
             sensor: start,
             rigid_sensor: start,
             height_m: 0.0,
+            pin: scene.sensor.mount.map(|m| m.pin),
+            body_radius_m: scene.sensor.body_diameter_m / 2.0,
+            attitude: Attitude::default(),
+            patch_centre: None,
+            incision,
         };
         arm.encoders.sample(&q0, 1.0);
         Ok(arm)
@@ -449,22 +502,81 @@ impl DynamicArm {
         if let Some(geom) = self.rod.rigid(&g.0, &self.pivot) {
             let rigid_tissue = placement.to_tissue(&geom.tip) + sensor_offset;
             let rigid = [rigid_tissue.x, rigid_tissue.z];
+            // The rod's lean in the tissue frame (its lower end toward +x by `along`, toward
+            // +z by `across`), which the pin joint passes on to the body or not.
+            let axis = base_from_tissue.inverse() * geom.axis;
+            let along = axis.x.atan2(-axis.y);
+            let across = axis.z.atan2(-axis.y);
+            let r = self.body_radius_m;
+            // A body tilted sideways with the rod carries its line's centre by r sin β.
+            let body_shift = match self.pin {
+                Some(PinAxis::AlongLine) => [0.0, r * across.sin()],
+                _ => [0.0, 0.0],
+            };
+            let body = [rigid[0] + body_shift[0], rigid[1] + body_shift[1]];
             let compliance = self.rod.compliance_m_per_n(geom.gimbal_to_pivot_m);
             let other_base = self.rod.perpendicular_load(&geom, self.normal_n);
             let other_tissue = base_from_tissue.inverse() * other_base;
+            let other = [other_tissue.x, other_tissue.z];
+            // The incision's friction element holds the pivot back: an extra tip
+            // displacement of −(L/a) f / k, passed as the load the compliance turns into it.
+            let lever = self.rod.length_m / geom.gimbal_to_pivot_m.max(1e-3);
+            let mut loads = other;
+            if let Some(h) = &self.incision
+                && compliance > 0.0
+            {
+                for (load, force) in loads.iter_mut().zip(h.force_n) {
+                    *load -= lever * force / (h.stiffness_n_per_m * compliance);
+                }
+            }
             let sol = self.contact.solve(
                 &mut self.contact_state,
-                rigid,
+                body,
                 rigid_tissue.y,
                 compliance,
-                [other_tissue.x, other_tissue.z],
+                loads,
                 dt,
             );
+            if let Some(h) = &mut self.incision {
+                // The pivot carries the tip's lateral load through the lever; its spring
+                // takes what the friction element does not.
+                let tip_load = [sol.friction_n[0] + other[0], sol.friction_n[1] + other[1]];
+                let shift = [
+                    (lever * tip_load[0] - h.force_n[0]) / h.stiffness_n_per_m,
+                    (lever * tip_load[1] - h.force_n[1]) / h.stiffness_n_per_m,
+                ];
+                h.update(shift);
+            }
             self.normal_n = sol.normal_n;
             self.indentation_m = sol.indentation_m;
             self.friction_n = sol.friction_n;
             self.sliding = sol.sliding;
-            self.sensor = SurfacePoint::new(sol.position[0], sol.position[1]);
+            let contact_at = SurfacePoint::new(sol.position[0], sol.position[1]);
+            (self.sensor, self.patch_centre, self.attitude) = match self.pin {
+                None => (contact_at, None, Attitude::default()),
+                Some(PinAxis::AlongLine) => (
+                    contact_at,
+                    None,
+                    Attitude {
+                        line_tilt_rad: across,
+                        pin_height_m: r,
+                        ..Attitude::default()
+                    },
+                ),
+                // The strip turns with the rod about the body's axis: it senses r sin α
+                // along x from the bottom of the cylinder, where the patch is.
+                Some(PinAxis::AcrossLine) => (
+                    SurfacePoint::new(contact_at.x_m + r * along.sin(), contact_at.z_m),
+                    Some(contact_at),
+                    Attitude {
+                        strip_angle_rad: along,
+                        line_friction_n: sol.friction_n[1],
+                        rocking: true,
+                        pin_height_m: r,
+                        ..Attitude::default()
+                    },
+                ),
+            };
             self.rigid_sensor = SurfacePoint::new(rigid[0], rigid[1]);
             self.height_m = rigid_tissue.y;
             let tip_force =

@@ -23,7 +23,7 @@ use nalgebra::{Point3, Vector3};
 
 use crate::bench::Bench;
 use crate::error::SimError;
-use crate::scene::Scene;
+use crate::scene::{Placing, Scene};
 use crate::trial::{LocatedSample, TrialResult};
 
 /// Simulated time allowed for the whole trial before it is stopped as `timeout`, s. The seed
@@ -35,6 +35,12 @@ const MARK_ATTEMPTS: usize = 3;
 
 /// Speed at which the "surgeon" moves the sensor to a placement, m/s.
 const PLACEMENT_SPEED_M_S: f64 = 0.01;
+
+/// Placing by eye: a sensor this close to the mark is left where it is, m; the arm is sent
+/// this far past the mark while the surgeon watches the sensor slide onto it (more than the
+/// rod's compliance lag of a few mm), m.
+const PLACEMENT_TOLERANCE_M: f64 = 0.001;
+const PLACEMENT_OVERRUN_M: f64 = 0.015;
 
 /// How often the sensor's believed and true positions are kept for plots, s.
 const TRACK_SAMPLE_S: f64 = 0.1;
@@ -322,14 +328,51 @@ impl Lockstep {
             .settled(self.believed_surface(), self.believed_speed_m_s, self.now())
     }
 
-    /// The surgeon moves the sensor to a placement and waits for it to settle.
-    fn place(&mut self, at: SurfacePoint) -> Result<(), Stop> {
-        self.move_to(at, PLACEMENT_SPEED_M_S)
-            .map_err(|e| Stop::Fault(e.to_string()))?;
+    /// The surgeon moves the sensor to a placement and waits for it to settle, in the way
+    /// the scene says ([`Placing`]).
+    fn place(&mut self, at: SurfacePoint, placing: Placing) -> Result<(), Stop> {
+        match placing {
+            Placing::Robot => self
+                .move_to(at, PLACEMENT_SPEED_M_S)
+                .map_err(|e| Stop::Fault(e.to_string()))?,
+            Placing::Eye => self.slide_onto(at)?,
+        }
         loop {
             self.next_frame()?;
             if self.settled() {
                 return Ok(());
+            }
+        }
+    }
+
+    /// Slide the sensor onto `at` by eye: the arm moves straight toward the mark and on past
+    /// it, and stops the moment the sensor itself (not where the robot believes it is)
+    /// reaches the mark. The rod's compliance leaves the robot's belief ahead of the sensor
+    /// along the approach, as a hand on the gimbal would leave it.
+    fn slide_onto(&mut self, at: SurfacePoint) -> Result<(), Stop> {
+        let from = self.bench.truth().sensor;
+        let (dx, dz) = (at.x_m - from.x_m, at.z_m - from.z_m);
+        let length = dx.hypot(dz);
+        if length <= PLACEMENT_TOLERANCE_M {
+            return self.hold_here().map_err(|e| Stop::Fault(e.to_string()));
+        }
+        let (ux, uz) = (dx / length, dz / length);
+        let beyond = SurfacePoint::new(
+            at.x_m + ux * PLACEMENT_OVERRUN_M,
+            at.z_m + uz * PLACEMENT_OVERRUN_M,
+        );
+        self.move_to(beyond, PLACEMENT_SPEED_M_S)
+            .map_err(|e| Stop::Fault(e.to_string()))?;
+        loop {
+            self.next_frame()?;
+            let s = self.bench.truth().sensor;
+            let to_go = (at.x_m - s.x_m) * ux + (at.z_m - s.z_m) * uz;
+            let moving = self
+                .planner
+                .finish_time_s()
+                .is_some_and(|end| self.now() < end);
+            if to_go <= 0.0 || !moving {
+                return self.hold_here().map_err(|e| Stop::Fault(e.to_string()));
             }
         }
     }
@@ -444,7 +487,7 @@ impl Lockstep {
         let mut outcome = Outcome::default();
         let seeded = (|| -> Result<bool, Stop> {
             for (i, placement) in scene.placements.iter().enumerate() {
-                self.place(*placement)?;
+                self.place(*placement, scene.placed_by)?;
                 self.recording_first = i == 0;
                 let found = self.mark()?;
                 self.recording_first = false;

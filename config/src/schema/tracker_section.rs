@@ -34,7 +34,10 @@ impl Validate for TrackerSection {
                 TRACKER_NAMES.join(", ")
             ),
         );
-        v.at("params", |v| v.section("seed2002", &self.params.seed2002));
+        v.at("params", |v| {
+            v.section("seed2002", &self.params.seed2002);
+            v.section("beatslide", &self.params.beatslide);
+        });
     }
 }
 
@@ -55,6 +58,10 @@ impl TrackerSection {
             Err(BuildError::Unknown(e)) => v.problem("name", e.to_string()),
             Err(BuildError::Seed2002(e)) => v.problem(
                 "params.seed2002",
+                format!("{e} (with the sensor's {} Hz)", sensor.sample_rate_hz),
+            ),
+            Err(BuildError::BeatSlide(e)) => v.problem(
+                "params.beatslide",
                 format!("{e} (with the sensor's {} Hz)", sensor.sample_rate_hz),
             ),
         }
@@ -133,6 +140,69 @@ impl Validate for control::tracker::seed2002::Seed2002Params {
             v.check(s > self.min_step_m, "max_step_m", "must exceed min_step_m");
         }
         v.positive("move_speed_m_s", self.move_speed_m_s);
+    }
+}
+
+impl Validate for control::tracker::beatslide::BeatSlideParams {
+    fn validate(&self, v: &mut Validator) {
+        v.positive("min_period_s", self.min_period_s);
+        v.positive("max_period_s", self.max_period_s);
+        v.check(
+            self.min_period_s < self.max_period_s,
+            "max_period_s",
+            "must exceed min_period_s",
+        );
+        // Noise alone reaches about 6 (docs/tracker-beatslide.md): lower is a false alarm
+        // every few windows.
+        v.in_range("detection_threshold", self.detection_threshold, 4.0, 1.0e4);
+        v.in_range("coherent_s", self.coherent_s, 1.0, MAX_WINDOW_S);
+        v.in_range("mark_window_s", self.mark_window_s, 1.0, MAX_WINDOW_S);
+        v.in_range("mark_extend_s", self.mark_extend_s, 0.1, MAX_WINDOW_S);
+        v.in_range(
+            "mark_max_window_s",
+            self.mark_max_window_s,
+            1.0,
+            MAX_WINDOW_S,
+        );
+        v.check(
+            self.mark_max_window_s >= self.mark_window_s,
+            "mark_max_window_s",
+            "must be at least mark_window_s",
+        );
+        v.in_range("search_window_s", self.search_window_s, 1.0, MAX_WINDOW_S);
+        v.in_range("fix_snr", self.fix_snr, 1.0, 1000.0);
+        v.in_range("target_snr", self.target_snr, 1.0, 1000.0);
+        v.check(
+            (1..=64).contains(&self.max_beats_per_fix),
+            "max_beats_per_fix",
+            format!("must be 1 to 64, got {}", self.max_beats_per_fix),
+        );
+        v.in_range("max_speed_m_s", self.max_speed_m_s, 1e-4, 0.1);
+        v.in_range(
+            "max_travel_per_fix_m",
+            self.max_travel_per_fix_m,
+            0.001,
+            0.1,
+        );
+        v.in_range("prediction_sd_m", self.prediction_sd_m, 1e-4, 0.01);
+        v.in_range("max_blind_m", self.max_blind_m, 0.002, 0.2);
+        v.check(
+            (1..=100).contains(&self.sliding_misses),
+            "sliding_misses",
+            format!("must be 1 to 100, got {}", self.sliding_misses),
+        );
+        v.check(
+            self.max_returns <= 100,
+            "max_returns",
+            format!("must be at most 100, got {}", self.max_returns),
+        );
+        v.in_range("gate_sigma", self.gate_sigma, 1.0, 100.0);
+        v.in_range("gate_min_m", self.gate_min_m, 1e-4, 0.05);
+        v.positive("curvature_prior_per_m", self.curvature_prior_per_m);
+        v.positive("curvature_walk", self.curvature_walk);
+        v.in_range("fix_floor_m", self.fix_floor_m, 1e-6, 0.01);
+        v.in_range("tilt_deflection", self.tilt_deflection, 0.0, 0.2);
+        v.in_range("return_speed_m_s", self.return_speed_m_s, 1e-4, 0.1);
     }
 }
 

@@ -5,12 +5,23 @@
 //! allocated at construction; analysing a window does not allocate.
 //! docs/signal-processing.md describes the algorithm, the choices made and the measurement
 //! behind the shipped filter order.
+//!
+//! The `beatslide` tracker's estimators (docs/tracker-beatslide.md) live beside them:
+//! [`harmonic`] (lock-in by least squares on the pulse's harmonics), [`pulse_search`] (a
+//! pulse of unknown rate across all elements), [`kernel_fit`] (sub-element localization),
+//! [`beat_clock`] (following the heart's phase and rate) and [`noise_level`] (σ from the
+//! data).
 
 pub mod analysis;
 pub mod bandpass;
+pub mod beat_clock;
 pub mod detect;
+pub mod harmonic;
+pub mod kernel_fit;
 pub mod localize;
+pub mod noise_level;
 pub mod period;
+pub mod pulse_search;
 pub mod window;
 
 pub use analysis::{AnalysisSettings, NoPulseFound, PulseAnalyzer, PulseFinding};

@@ -191,6 +191,7 @@ pub trait Tracker: Send {
     fn step(&mut self, input: &TrackerInput<'_>) -> TrackerOutput;
 }
 
+pub mod beatslide;
 pub mod event_queue;
 pub mod line_fit;
 pub mod seed2002;
@@ -198,7 +199,7 @@ pub mod seed2002;
 use crate::sensor::ArrayGeometry;
 
 /// The names [`build`] knows, as the command line and config spell them.
-pub const TRACKER_NAMES: &[&str] = &[seed2002::Seed2002::NAME];
+pub const TRACKER_NAMES: &[&str] = &[seed2002::Seed2002::NAME, beatslide::BeatSlide::NAME];
 
 /// A tracker name that [`build`] does not know.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -214,6 +215,8 @@ pub enum BuildError {
     Unknown(#[from] UnknownTracker),
     #[error(transparent)]
     Seed2002(#[from] seed2002::InvalidParams),
+    #[error(transparent)]
+    BeatSlide(#[from] beatslide::InvalidParams),
 }
 
 /// Make the tracker called `name` with its settings from `params`. Allocates every buffer
@@ -227,6 +230,10 @@ pub fn build(
         seed2002::Seed2002::NAME => {
             Ok(Box::new(seed2002::Seed2002::new(params.seed2002, *sensor)?))
         }
+        beatslide::BeatSlide::NAME => Ok(Box::new(beatslide::BeatSlide::new(
+            params.beatslide,
+            *sensor,
+        )?)),
         _ => Err(UnknownTracker {
             name: name.to_string(),
         }
@@ -239,6 +246,33 @@ pub fn build(
 #[serde(deny_unknown_fields, default)]
 pub struct TrackerParams {
     pub seed2002: seed2002::Seed2002Params,
+    pub beatslide: beatslide::BeatSlideParams,
+}
+
+impl TrackerParams {
+    /// Set the named tracker's speed setting (the speed of its moves, m/s): `seed2002`'s
+    /// `move_speed_m_s`, `beatslide`'s `max_speed_m_s`. For speed-against-error benchmarks.
+    pub fn set_speed(&mut self, name: &str, speed_m_s: f64) -> Result<(), UnknownTracker> {
+        match name {
+            seed2002::Seed2002::NAME => self.seed2002.move_speed_m_s = speed_m_s,
+            beatslide::BeatSlide::NAME => self.beatslide.max_speed_m_s = speed_m_s,
+            _ => {
+                return Err(UnknownTracker {
+                    name: name.to_string(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The named tracker's speed setting, m/s.
+    pub fn speed(&self, name: &str) -> Option<f64> {
+        match name {
+            seed2002::Seed2002::NAME => Some(self.seed2002.move_speed_m_s),
+            beatslide::BeatSlide::NAME => Some(self.beatslide.max_speed_m_s),
+            _ => None,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -1,5 +1,7 @@
 //! `pulsetrack check-config FILE`: load and validate a file, print every problem.
 
+use crate::cli::stdout::outln;
+
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -14,9 +16,10 @@ pub struct Args {
 pub fn run(args: &Args) -> ExitCode {
     match load_file::<Config>(&args.file) {
         Ok(loaded) => {
-            println!(
+            outln!(
                 "{}: ok (config version {})",
-                loaded.origin, loaded.value.version
+                loaded.origin,
+                loaded.value.version
             );
             ExitCode::SUCCESS
         }

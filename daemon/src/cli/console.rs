@@ -2,6 +2,8 @@
 //! connects to the daemon's socket, sends one request and prints the reply (or, for `track`
 //! and `watch`, follows the event stream).
 
+use crate::cli::stdout::outln;
+
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -187,12 +189,12 @@ fn run_inner(conn: &Conn, verb: &Verb) -> Result<ExitCode, String> {
     let reply = c.request(name, args, TIMEOUT).map_err(|e| e.to_string())?;
     let ok = reply["ok"] == Value::Bool(true);
     if conn.json {
-        println!("{reply}");
+        outln!("{reply}");
     } else if ok {
         if name == "status" {
             print_status(&reply);
         } else {
-            println!(
+            outln!(
                 "{name}: ok (state {})",
                 reply["state"].as_str().unwrap_or("?")
             );
@@ -218,31 +220,31 @@ fn mm(v: &Value) -> String {
 }
 
 fn print_status(r: &Value) {
-    println!("state      {}", r["state"].as_str().unwrap_or("?"));
+    outln!("state      {}", r["state"].as_str().unwrap_or("?"));
     if !r["fault"].is_null() {
-        println!(
+        outln!(
             "fault      {}",
             r["fault"]["reason"].as_str().unwrap_or("?")
         );
         if let Some(p) = r["fault"]["flight_recorder"].as_str() {
-            println!("           flight recorder: {p}");
+            outln!("           flight recorder: {p}");
         }
     }
     let b = &r["backend"];
-    println!(
+    outln!(
         "backend    {} (time scale {})",
         b["kind"].as_str().unwrap_or("?"),
         b["time_scale"]
     );
     if let Some(s) = b["scene"].as_object() {
-        println!(
+        outln!(
             "scene      {}",
             s.get("name").and_then(Value::as_str).unwrap_or("?")
         );
     }
-    println!("clock      {:.3} s", r["t_s"].as_f64().unwrap_or(0.0));
+    outln!("clock      {:.3} s", r["t_s"].as_f64().unwrap_or(0.0));
     let a = &r["arm"];
-    println!(
+    outln!(
         "sensor     x {}  z {}  (setpoint x {}  z {}), depth {}",
         mm(&a["sensor"]["x_m"]),
         mm(&a["sensor"]["z_m"]),
@@ -251,7 +253,7 @@ fn print_status(r: &Value) {
         mm(&a["depth_m"])
     );
     let t = &r["tactile"];
-    println!(
+    outln!(
         "tactile    {} frames, newest {} s old, contact {} N",
         t["frames"],
         t["age_s"]
@@ -264,7 +266,7 @@ fn print_status(r: &Value) {
             .unwrap_or("-".into())
     );
     if let Some(tr) = r["trial"].as_object() {
-        println!(
+        outln!(
             "trial      {}: {} seeds, {} located, {} followed",
             tr.get("trial").and_then(Value::as_str).unwrap_or("?"),
             tr.get("seeds").unwrap_or(&Value::Null),
@@ -275,12 +277,13 @@ fn print_status(r: &Value) {
     let l = &r["loop"];
     let p = &l["period"];
     if p.is_null() {
-        println!(
+        outln!(
             "loop       {} cycles, {} overruns; period not reported yet",
-            l["cycles"], l["overruns"]
+            l["cycles"],
+            l["overruns"]
         );
     } else {
-        println!(
+        outln!(
             "loop       {} cycles, {} overruns; period p50 {} us, p99 {} us, p99.9 {} us, max {:.0} us{}",
             l["cycles"],
             l["overruns"],
@@ -431,7 +434,7 @@ fn track(
         .call("track", json!({"length_m": length_m}), TIMEOUT)
         .map_err(|e| e.to_string())?;
     if detach {
-        println!("tracking (state {})", r["state"].as_str().unwrap_or("?"));
+        outln!("tracking (state {})", r["state"].as_str().unwrap_or("?"));
         return Ok(ExitCode::SUCCESS);
     }
     loop {
@@ -469,8 +472,8 @@ fn track(
 
 /// The trial summary in a few lines.
 pub fn print_summary(s: &Value) {
-    println!("trial      {}", s["trial"].as_str().unwrap_or("?"));
-    println!(
+    outln!("trial      {}", s["trial"].as_str().unwrap_or("?"));
+    outln!(
         "result     {} ({})",
         if s["completed"] == Value::Bool(true) {
             "completed"
@@ -479,7 +482,7 @@ pub fn print_summary(s: &Value) {
         },
         s["end_reason"].as_str().unwrap_or("?")
     );
-    println!(
+    outln!(
         "time       {:.1} s tracking, {} heartbeats, {} backtracks",
         s["duration_s"].as_f64().unwrap_or(0.0),
         s["beats"]
@@ -488,16 +491,16 @@ pub fn print_summary(s: &Value) {
             .unwrap_or("-".into()),
         s["backtracks"]
     );
-    println!(
+    outln!(
         "followed   {} over {} located points",
         mm(&s["followed_m"]),
         s["located"].as_array().map(Vec::len).unwrap_or(0)
     );
     let e = &s["lateral_error_m"];
     if e.is_null() {
-        println!("error      (no ground truth on this backend)");
+        outln!("error      (no ground truth on this backend)");
     } else {
-        println!(
+        outln!(
             "lateral    mean {}, SD {}, max {} over {} points",
             mm(&e["mean"]),
             mm(&e["sd"]),
@@ -505,5 +508,5 @@ pub fn print_summary(s: &Value) {
             e["n"]
         );
     }
-    println!("recording  {}", s["recording"].as_str().unwrap_or("?"));
+    outln!("recording  {}", s["recording"].as_str().unwrap_or("?"));
 }

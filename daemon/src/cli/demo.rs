@@ -4,6 +4,8 @@
 //! first placement, mark, second placement, mark, track — shows progress, prints the
 //! summary and writes plots.
 
+use crate::cli::stdout::outln;
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -95,7 +97,7 @@ fn run_inner(args: &Args) -> Result<bool, String> {
     crate::service::logging::init("warn");
     let loaded = demo_config(args, &out)?;
     let wall0 = Instant::now();
-    println!(
+    outln!(
         "pulsetrack demo: starting pulsetrackd on the simulated bench ({}x real time)",
         args.time_scale
     );
@@ -133,7 +135,7 @@ fn drive(
     artery: &[(f64, f64)],
 ) -> Result<bool, String> {
     let mut c = Client::connect(daemon.socket_path(), T).map_err(|e| e.to_string())?;
-    println!(
+    outln!(
         "console:  {} (protocol {})",
         daemon.socket_path().display(),
         c.hello["protocol"]
@@ -152,7 +154,7 @@ fn drive(
         return Err("the daemon's status names no scene placements (not the sim backend?)".into());
     };
     let length_m = scene["tracked_length_m"].as_f64();
-    println!(
+    outln!(
         "scene:    {name}: placements ({:.1}, {:.1}) and ({:.1}, {:.1}) mm, track {}",
         x1 * 1e3,
         z1 * 1e3,
@@ -165,7 +167,7 @@ fn drive(
 
     c.call("enable", json!({}), T).map_err(|e| e.to_string())?;
     for (i, (x, z)) in [(x1, z1), (x2, z2)].into_iter().enumerate() {
-        println!(
+        outln!(
             "placement {}: moving to ({:.1}, {:.1}) mm",
             i + 1,
             x * 1e3,
@@ -182,7 +184,7 @@ fn drive(
             } else {
                 String::new()
             };
-            println!(
+            outln!(
                 "placement {}: marking (acquiring the pulse here){again}",
                 i + 1
             );
@@ -191,18 +193,18 @@ fn drive(
             if found {
                 break;
             }
-            println!("  no pulse found");
+            outln!("  no pulse found");
             wait_state(&mut c, "holding")?;
         }
         if !found {
-            println!(
+            outln!(
                 "no pulse found at placement {} in {MARK_ATTEMPTS} marks: the trial cannot be seeded",
                 i + 1
             );
             return Ok(false);
         }
     }
-    println!("tracking...");
+    outln!("tracking...");
     c.call("track", json!({"length_m": length_m}), T)
         .map_err(|e| e.to_string())?;
     let summary = loop {
@@ -215,29 +217,29 @@ fn drive(
         match e["event"].as_str() {
             Some("trial") if e["phase"] == "ended" => break e["summary"].clone(),
             Some("fault") => {
-                println!("{}", describe_event(&e).unwrap_or_default());
+                outln!("{}", describe_event(&e).unwrap_or_default());
                 return Ok(false);
             }
             Some("detection") => {
                 if let Some(line) = describe_event(&e) {
-                    println!("  {line}");
+                    outln!("  {line}");
                 }
             }
             _ => {}
         }
     };
-    println!();
+    outln!();
     print_summary(&summary);
-    println!("wall time  {:.1} s", wall0.elapsed().as_secs_f64());
+    outln!("wall time  {:.1} s", wall0.elapsed().as_secs_f64());
     let plots = out.join("plots");
     match write_plots(&summary, &plots, artery) {
-        Ok(n) => println!("plots      {} ({n} charts, PNG and SVG)", plots.display()),
-        Err(e) => println!("plots      not written: {e}"),
+        Ok(n) => outln!("plots      {} ({n} charts, PNG and SVG)", plots.display()),
+        Err(e) => outln!("plots      not written: {e}"),
     }
     let summary_path = out.join("summary.json");
     crate::recording::recorder::write_json_atomically(&summary_path, &summary)
         .map_err(|e| format!("{}: {e}", summary_path.display()))?;
-    println!("summary    {}", summary_path.display());
+    outln!("summary    {}", summary_path.display());
     Ok(summary["completed"] == Value::Bool(true))
 }
 
@@ -290,13 +292,13 @@ fn wait_mark(c: &mut Client) -> Result<bool, String> {
         };
         match (e["event"].as_str(), e["kind"].as_str()) {
             (Some("detection"), Some("located")) => {
-                println!("  {}", describe_event(&e).unwrap_or_default());
+                outln!("  {}", describe_event(&e).unwrap_or_default());
                 return Ok(true);
             }
             (Some("detection"), Some("missed")) => return Ok(false),
             (Some("detection"), _) => {
                 if let Some(l) = describe_event(&e) {
-                    println!("  {l}");
+                    outln!("  {l}");
                 }
             }
             (Some("fault"), _) => return Err(describe_event(&e).unwrap_or_default()),

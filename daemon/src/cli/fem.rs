@@ -435,6 +435,7 @@ fn kernel_table(refine: u32) -> Result<(), String> {
             wall,
             centre_depth_m: h,
             refine,
+            backing_depth_m: None,
         };
         let k = compute(&p).map_err(|e| e.to_string())?;
         let (mut min, mut x_min) = (f64::INFINITY, 0.0);

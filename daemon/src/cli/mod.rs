@@ -1,11 +1,13 @@
 //! The `pulsetrack` command line: one module per subcommand.
 
+mod bench;
 mod check_config;
 pub mod console;
 mod demo;
 mod fem;
 mod recover;
 mod sim;
+mod stdout;
 
 use std::process::ExitCode;
 
@@ -37,6 +39,8 @@ enum Command {
     Recover(recover::Args),
     /// Run whole trials on the simulated bench in lockstep and report the tracking error.
     Sim(sim::Args),
+    /// Monte Carlo of trials over scenes and trackers on every core: speed against error.
+    Bench(bench::Args),
 }
 
 pub fn run() -> ExitCode {
@@ -48,5 +52,6 @@ pub fn run() -> ExitCode {
         Command::Fem(args) => fem::run(&args),
         Command::Recover(args) => recover::run(&args),
         Command::Sim(args) => sim::run(&args),
+        Command::Bench(args) => bench::run(&args),
     }
 }

@@ -2,6 +2,8 @@
 //! cut) as complete, indexed MCAP files that Foxglove and PlotJuggler open; the original is
 //! kept as `NAME.truncated.mcap`. Complete files are left alone.
 
+use crate::cli::stdout::outln;
+
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -18,8 +20,8 @@ pub fn run(args: &Args) -> ExitCode {
     let mut failed = false;
     for f in &args.files {
         match recover_in_place(f) {
-            Ok(Some(n)) => println!("{}: recovered {n} messages", f.display()),
-            Ok(None) => println!("{}: complete; nothing to do", f.display()),
+            Ok(Some(n)) => outln!("{}: recovered {n} messages", f.display()),
+            Ok(None) => outln!("{}: complete; nothing to do", f.display()),
             Err(e) => {
                 eprintln!("{e}");
                 failed = true;

@@ -5,6 +5,8 @@
 //! With `--json` stdout is one JSON document (docs/sim-json.md); otherwise a human summary.
 //! Progress and diagnostics go to stderr only.
 
+use crate::cli::stdout::outln;
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -119,7 +121,7 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
             trials: &trials,
         };
         let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
-        println!("{text}");
+        outln!("{text}");
     } else {
         print_summary(&scene, &args.tracker, &trials);
     }
@@ -127,13 +129,22 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
 }
 
 fn print_summary(scene: &Scene, tracker: &str, trials: &[TrialResult]) {
-    println!("scene {} with tracker {tracker}", scene.name);
-    println!(
+    outln!("scene {} with tracker {tracker}", scene.name);
+    outln!(
         "{:>5} {:>8} {:>16} {:>7} {:>9} {:>9} {:>9} {:>6} {:>9} {:>7}",
-        "trial", "seed", "end", "points", "mean mm", "sd mm", "max mm", "back", "track s", "wall s"
+        "trial",
+        "seed",
+        "end",
+        "points",
+        "mean mm",
+        "sd mm",
+        "max mm",
+        "back",
+        "track s",
+        "wall s"
     );
     for (i, t) in trials.iter().enumerate() {
-        println!(
+        outln!(
             "{:>5} {:>8} {:>16} {:>7} {:>9.2} {:>9.2} {:>9.2} {:>6} {:>9.1} {:>7.3}",
             i + 1,
             t.seed,
@@ -148,7 +159,7 @@ fn print_summary(scene: &Scene, tracker: &str, trials: &[TrialResult]) {
         );
     }
     let s = TrialsSummary::of(trials);
-    println!(
+    outln!(
         "all: {}/{} completed, pooled lateral error {:.2} ± {:.2} mm (mean ± SD), {:.2} backtracks per trial, {:.0} s per track",
         s.completed,
         s.trials,

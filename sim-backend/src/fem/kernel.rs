@@ -41,6 +41,12 @@ pub struct KernelParams {
     pub centre_depth_m: f64,
     /// Mesh refinement levels beyond the kernel's default density.
     pub refine: u32,
+    /// Depth below the surface of a rigid, frictionless backing the tissue rests on (bone
+    /// under the radial artery; the table under a foam sheet), m. Absent: the block hangs
+    /// from the surface (the half-space stand-in, zero net surface force). Left out of the
+    /// serialized form when absent, so the cache keys of kernels without one are unchanged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub backing_depth_m: Option<f64>,
 }
 
 impl KernelParams {
@@ -58,16 +64,34 @@ impl KernelParams {
             && pos(self.centre_depth_m)
             && self.centre_depth_m >= 1.2 * self.outer_radius_m()
             && self.refine <= 3
+            && self.backing_depth_m.is_none_or(|b| {
+                b.is_finite() && b >= self.centre_depth_m + 1.2 * self.meshed_radius_m()
+            })
+    }
+
+    /// The outermost meshed circle: the wall, or for a hole the ring of tissue that stands
+    /// in for it ([`Self::model`]). The mesher needs 1.15 of it to every edge.
+    pub fn meshed_radius_m(&self) -> f64 {
+        if self.wall_thickness_m > 0.0 {
+            self.outer_radius_m()
+        } else {
+            1.25 * self.lumen_radius_m
+        }
     }
 
     /// The FEM model: a block 24 depths wide and 8 deep hanging from a flat rigid surface
     /// (bottom and sides free, so that, as in a half-space, the surface carries no net
-    /// force), 1 Pa in the lumen.
+    /// force), 1 Pa in the lumen. With a backing the block is exactly as deep as the backing
+    /// and its bottom is held in y (frictionless): the tube can no longer relieve itself
+    /// downward, and the surface carries a net force.
     pub fn model(&self) -> ModelFile {
         let h = self.centre_depth_m;
         let r = self.outer_radius_m();
         let width = (24.0 * h).max(0.06);
-        let height = (8.0 * h).max(h + 3.0 * r);
+        let (height, bottom) = match self.backing_depth_m {
+            Some(b) => (b, Bottom::Held),
+            None => ((8.0 * h).max(h + 3.0 * r), Bottom::Free),
+        };
         let mut layers = Vec::new();
         let lumen = if self.wall_thickness_m > 0.0 {
             layers.push(LayerSpec {
@@ -77,7 +101,8 @@ impl KernelParams {
             });
             self.lumen_radius_m
         } else {
-            // A hole with no wall: a thin ring of tissue stands in for the first layer.
+            // A hole with no wall: a thin ring of tissue stands in for the first layer
+            // (`meshed_radius_m` knows its size).
             let t = 0.25 * self.lumen_radius_m;
             layers.push(LayerSpec {
                 name: "tissue ring".into(),
@@ -104,7 +129,7 @@ impl KernelParams {
                 layers,
             }),
             load: Load::Platen { indent_m: 0.0 },
-            bottom: Bottom::Free,
+            bottom,
             lumen: Some(LumenPressure::Constant { pressure_pa: 1.0 }),
             times_s: vec![0.0],
             mesh: MeshSpec {
@@ -128,17 +153,39 @@ pub struct FemKernelSpec {
     /// Mesh refinement levels beyond the kernel's default density.
     #[serde(default)]
     pub refine: u32,
+    /// A rigid, frictionless backing this far below the tube's outer wall (bone under the
+    /// radial artery; the table under a foam sheet), m; absent: none. Relative to the tube,
+    /// so that it follows an artery whose depth varies along its path.
+    #[serde(default)]
+    pub backing_gap_m: Option<f64>,
+    /// The sensor has flattened the tube's wall against the backing (applanation): a flat
+    /// wall carries no hoop tension, so the lumen pressure acts on the tissue directly. The
+    /// kernel is then that of a hole as large as the tube's outer radius (the wall's own
+    /// modulus is not used). The mesh keeps the lumen round: the flattened shape itself is
+    /// not modelled, so this is the round-lumen bound of applanation (docs/calibration.md
+    /// compares it with `physics::applanation`). Default false: the round wall carries its
+    /// share in hoop stress.
+    #[serde(default)]
+    pub wall_flattened: bool,
 }
 
 impl FemKernelSpec {
     pub fn params(&self, lumen_radius_m: f64, wall_m: f64, centre_depth_m: f64) -> KernelParams {
+        let (lumen_radius_m, wall_thickness_m) = if self.wall_flattened {
+            (lumen_radius_m + wall_m, 0.0)
+        } else {
+            (lumen_radius_m, wall_m)
+        };
         KernelParams {
             tissue: self.tissue,
             lumen_radius_m,
-            wall_thickness_m: wall_m,
+            wall_thickness_m,
             wall: self.wall,
             centre_depth_m,
             refine: self.refine,
+            backing_depth_m: self
+                .backing_gap_m
+                .map(|g| centre_depth_m + lumen_radius_m + wall_thickness_m + g),
         }
     }
 }
@@ -265,7 +312,7 @@ pub fn analytic_per_pa(x_m: f64, lumen_radius_m: f64, centre_depth_m: f64) -> f6
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum KernelError {
     #[error(
-        "invalid kernel parameters: sizes and moduli must be positive, ν in (-1, 0.5), the tube at least 1.2 outer radii deep, refine <= 3"
+        "invalid kernel parameters: sizes and moduli must be positive, ν in (-1, 0.5), the tube at least 1.2 outer radii deep and, with a backing, at least 1.2 meshed radii (a hole's includes a ring of 0.25 lumen radii) above it, refine <= 3"
     )]
     BadParams,
     #[error("{0}")]
@@ -442,6 +489,7 @@ mod tests {
             wall: Material::new(20e3, 0.45),
             centre_depth_m: h,
             refine: 0,
+            backing_depth_m: None,
         }
     }
 
@@ -502,6 +550,56 @@ mod tests {
             walled > 0.0 && walled < 0.25 * bare,
             "walled {walled} bare {bare}"
         );
+    }
+
+    #[test]
+    fn a_backing_lets_the_surface_carry_the_tubes_force() {
+        let (a, h) = (0.0005, 0.005);
+        let mut p = hole(a, h);
+        let free = compute(&p).unwrap();
+        p.backing_depth_m = Some(0.010);
+        let backed = compute(&p).unwrap();
+        // Hanging from the surface (the half-space stand-in) the surface carries no net
+        // force; on a backing the surface and the backing take equal and opposite net
+        // forces, a part of the lumen's vertical thrust 2a (per Pa, per unit length): here
+        // about 15 %.
+        assert!(free.net_force_m().abs() < 0.02 * free.total_magnitude_m());
+        let net = backed.net_force_m();
+        assert!(net > 0.1 * 2.0 * a && net < 2.0 * a, "net {net}");
+        assert!(net > 0.5 * backed.total_magnitude_m(), "net {net}");
+        // And nowhere does the surface pull: no out-of-phase flank this close to the table.
+        assert!(
+            backed
+                .pressure_per_pa
+                .iter()
+                .all(|&v| v > -1e-4 * backed.at(0.0))
+        );
+        assert!(backed.at(0.0) > free.at(0.0));
+    }
+
+    #[test]
+    fn a_backing_too_close_is_refused_and_none_keeps_the_cache_key() {
+        let mut p = hole(0.0015, 0.005);
+        // The hole's mesh (with its ring of 0.25 radii) needs 1.2 meshed radii below it.
+        p.backing_depth_m = Some(0.005 + 1.1 * 1.25 * 0.0015);
+        assert!(matches!(compute(&p), Err(KernelError::BadParams)));
+        p.backing_depth_m = Some(0.005 + 1.3 * 1.25 * 0.0015);
+        assert!(compute(&p).is_ok());
+        // Kernels without a backing keep the key they had before the option existed.
+        let text = ron::to_string(&hole(0.0015, 0.005)).unwrap();
+        assert!(!text.contains("backing"), "{text}");
+        // The scene's spec puts the backing below the tube and flattens the wall on request.
+        let spec = FemKernelSpec {
+            tissue: Material::new(50e3, 0.49),
+            wall: Material::new(400e3, 0.49),
+            refine: 0,
+            backing_gap_m: Some(0.001),
+            wall_flattened: true,
+        };
+        let k = spec.params(0.0013, 0.0003, 0.0034);
+        assert!((k.lumen_radius_m - 0.0016).abs() < 1e-15);
+        assert_eq!(k.wall_thickness_m, 0.0);
+        assert!((k.backing_depth_m.unwrap() - 0.0060).abs() < 1e-12);
     }
 
     #[test]

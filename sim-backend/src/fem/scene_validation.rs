@@ -25,6 +25,8 @@ mod tests {
             tissue: Material::new(20e3, 0.45),
             wall: Material::new(100e3, 0.49),
             refine: 0,
+            backing_gap_m: None,
+            wall_flattened: false,
         });
         s
     }

@@ -17,7 +17,7 @@ mod validate;
 use std::path::Path;
 
 pub use path::{ArteryPath, Nearest, PathSpec, Turn};
-pub use pulse::{PulseSource, PulseSpec};
+pub use pulse::{PulseSource, PulseSpec, RateChange};
 pub use shipped::{SHIPPED, shipped_names, shipped_source};
 pub use spec::*;
 

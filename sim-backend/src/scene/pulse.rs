@@ -29,7 +29,8 @@ pub enum PulseSpec {
     },
     /// A physiological arterial pulse: `diastolic_pa` to `systolic_pa`, mean heart rate
     /// `heart_rate_hz`, beat-to-beat variability as the SD of the beat interval
-    /// (`interval_sd_s`) and of the pulse pressure (`pressure_sd_fraction`).
+    /// (`interval_sd_s`) and of the pulse pressure (`pressure_sd_fraction`), and optionally a
+    /// change of the mean rate during the trial (`rate_change`).
     Physiological {
         systolic_pa: f64,
         diastolic_pa: f64,
@@ -38,9 +39,36 @@ pub enum PulseSpec {
         interval_sd_s: f64,
         #[serde(default)]
         pressure_sd_fraction: f64,
+        #[serde(default)]
+        rate_change: Option<RateChange>,
     },
     /// No pulse at all (a hard case: the tracker must end cleanly).
     Absent,
+}
+
+/// The mean heart rate goes linearly from the pulse's `heart_rate_hz` to `to_hz` between
+/// `start_s` and `start_s + duration_s` of simulated time (from the trial's start), and
+/// stays there.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RateChange {
+    pub to_hz: f64,
+    pub start_s: f64,
+    pub duration_s: f64,
+}
+
+impl RateChange {
+    /// The mean rate at `t_s` for a pulse whose rate is `from_hz` before the change.
+    pub fn rate_hz(&self, from_hz: f64, t_s: f64) -> f64 {
+        let w = if self.duration_s > 0.0 {
+            ((t_s - self.start_s) / self.duration_s).clamp(0.0, 1.0)
+        } else if t_s >= self.start_s {
+            1.0
+        } else {
+            0.0
+        };
+        from_hz + (self.to_hz - from_hz) * w
+    }
 }
 
 fn half() -> f64 {
@@ -100,8 +128,10 @@ impl PulseSource {
                 heart_rate_hz,
                 interval_sd_s,
                 pressure_sd_fraction,
+                rate_change,
             } => {
-                let mean = 1.0 / heart_rate_hz;
+                let rate = rate_change.map_or(heart_rate_hz, |c| c.rate_hz(heart_rate_hz, start_s));
+                let mean = 1.0 / rate;
                 // Keep intervals physiological: within ±40 % of the mean.
                 let period =
                     (mean + interval_sd_s * standard_normal(rng)).clamp(0.6 * mean, 1.4 * mean);
@@ -268,6 +298,7 @@ mod tests {
             heart_rate_hz: 1.2,
             interval_sd_s: 0.04,
             pressure_sd_fraction: 0.05,
+            rate_change: None,
         };
         let run = |seed| {
             let mut p = PulseSource::new(&spec, seed);
@@ -281,6 +312,39 @@ mod tests {
         let beats = p.beats_started_by(30.0);
         // 1.2 Hz for 30 s: about 36 beats.
         assert!((30..=42).contains(&beats), "{beats}");
+    }
+
+    #[test]
+    fn heart_rate_changes_as_scheduled() {
+        let spec = PulseSpec::Physiological {
+            systolic_pa: 16_000.0,
+            diastolic_pa: 10_667.0,
+            heart_rate_hz: 1.0,
+            interval_sd_s: 0.0,
+            pressure_sd_fraction: 0.0,
+            rate_change: Some(RateChange {
+                to_hz: 1.5,
+                start_s: 20.0,
+                duration_s: 10.0,
+            }),
+        };
+        let mut p = PulseSource::new(&spec, 1);
+        // Steady 1 Hz for 20 s, then faster, then 1.5 Hz.
+        assert_eq!(p.beats_started_by(19.5), 20);
+        let at_30 = p.beats_started_by(30.0);
+        let at_50 = p.beats_started_by(50.0);
+        assert!(
+            (at_50 - at_30) as f64 >= 29.0 && at_50 - at_30 <= 31,
+            "{at_30} {at_50}"
+        );
+        assert!((31..=34).contains(&at_30), "{at_30}");
+        let c = RateChange {
+            to_hz: 2.0,
+            start_s: 5.0,
+            duration_s: 0.0,
+        };
+        assert_eq!(c.rate_hz(1.0, 4.9), 1.0);
+        assert_eq!(c.rate_hz(1.0, 5.0), 2.0);
     }
 
     #[test]

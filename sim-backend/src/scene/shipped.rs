@@ -22,6 +22,66 @@ pub const SHIPPED: &[(&str, &str)] = &[
         "seed-radial-wrist.ron",
         include_str!("../../../config/scenes/seed-radial-wrist.ron"),
     ),
+    (
+        "robust-heart-rate.ron",
+        include_str!("../../../config/scenes/robust-heart-rate.ron"),
+    ),
+    (
+        "robust-irregular-beats.ron",
+        include_str!("../../../config/scenes/robust-irregular-beats.ron"),
+    ),
+    (
+        "robust-lumps.ron",
+        include_str!("../../../config/scenes/robust-lumps.ron"),
+    ),
+    (
+        "robust-noise-doubled.ron",
+        include_str!("../../../config/scenes/robust-noise-doubled.ron"),
+    ),
+    (
+        "robust-occlusion.ron",
+        include_str!("../../../config/scenes/robust-occlusion.ron"),
+    ),
+    (
+        "tight-arc-20.ron",
+        include_str!("../../../config/scenes/tight-arc-20.ron"),
+    ),
+    (
+        "tight-arc-30.ron",
+        include_str!("../../../config/scenes/tight-arc-30.ron"),
+    ),
+    (
+        "tight-arc-40.ron",
+        include_str!("../../../config/scenes/tight-arc-40.ron"),
+    ),
+    (
+        "tight-arc-50.ron",
+        include_str!("../../../config/scenes/tight-arc-50.ron"),
+    ),
+    (
+        "tight-arc-60.ron",
+        include_str!("../../../config/scenes/tight-arc-60.ron"),
+    ),
+    (
+        "weak-pulse-12kpa.ron",
+        include_str!("../../../config/scenes/weak-pulse-12kpa.ron"),
+    ),
+    (
+        "weak-pulse-25kpa.ron",
+        include_str!("../../../config/scenes/weak-pulse-25kpa.ron"),
+    ),
+    (
+        "weak-pulse-3kpa.ron",
+        include_str!("../../../config/scenes/weak-pulse-3kpa.ron"),
+    ),
+    (
+        "weak-pulse-50kpa.ron",
+        include_str!("../../../config/scenes/weak-pulse-50kpa.ron"),
+    ),
+    (
+        "weak-pulse-6kpa.ron",
+        include_str!("../../../config/scenes/weak-pulse-6kpa.ron"),
+    ),
 ];
 
 const NAMES: &[&str] = &[
@@ -30,6 +90,21 @@ const NAMES: &[&str] = &[
     "seed-arc-145.ron",
     "seed-arc-220.ron",
     "seed-radial-wrist.ron",
+    "robust-heart-rate.ron",
+    "robust-irregular-beats.ron",
+    "robust-lumps.ron",
+    "robust-noise-doubled.ron",
+    "robust-occlusion.ron",
+    "tight-arc-20.ron",
+    "tight-arc-30.ron",
+    "tight-arc-40.ron",
+    "tight-arc-50.ron",
+    "tight-arc-60.ron",
+    "weak-pulse-12kpa.ron",
+    "weak-pulse-25kpa.ron",
+    "weak-pulse-3kpa.ron",
+    "weak-pulse-50kpa.ron",
+    "weak-pulse-6kpa.ron",
 ];
 
 /// The file names of the shipped scenes.

@@ -55,6 +55,21 @@ pub struct Scene {
     /// first placement along `-x`.
     #[serde(default)]
     pub start: Option<SurfacePoint>,
+    /// How the surgeon puts the sensor on each placement (default: by commanding the robot).
+    #[serde(default)]
+    pub placed_by: Placing,
+}
+
+/// How the surgeon puts the sensor on a placement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Placing {
+    /// Commands the robot to the mark: the robot's belief lands on it, and the sensor itself
+    /// trails by the rod's compliance.
+    #[default]
+    Robot,
+    /// Slides the sensor onto the mark watching the sensor itself: it lands on the mark and
+    /// the robot's belief is ahead of it by the compliance lag, along the approach.
+    Eye,
 }
 
 /// The artery (or the seed's latex tube).
@@ -78,6 +93,23 @@ pub struct ArterySpec {
     /// Which surface pressure kernel the tactile model uses (default: the analytic one).
     #[serde(default)]
     pub kernel: PressureKernel,
+    /// How the pulse couples into each element against its local hold-down pressure
+    /// (default: linearly, independent of it).
+    #[serde(default)]
+    pub coupling: PulseCoupling,
+}
+
+/// How the pulse reaches each element against the sensor's local hold-down pressure.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub enum PulseCoupling {
+    /// The kernel as it is: linear elasticity, independent of the hold-down.
+    #[default]
+    Linear,
+    /// The seed's vented tube: between pulses it is squeezed oval by the sensor's load and
+    /// each pulse re-rounds it, so the pulse an element feels scales with the local contact
+    /// pressure over the tube. It equals the kernel's when the sensor lies level under
+    /// `reference_normal_n` (docs/calibration.md).
+    HoldDown { reference_normal_n: f64 },
 }
 
 /// The surface pressure kernel of the tube.
@@ -90,6 +122,10 @@ pub enum PressureKernel {
     /// these moduli, cached on disk (`$PULSETRACK_FEM_CACHE` or the temporary directory).
     /// Needs a constant depth and radius along the path.
     Fem(crate::fem::kernel::FemKernelSpec),
+    /// The artery flattened against bone by the sensor (applanation): over half its outer
+    /// circumference the lumen pressure acts on the tissue above it directly and spreads
+    /// through the cover to the sensor (`physics::applanation`).
+    Applanation,
 }
 
 /// The tissue (or foam) the sensor slides on.
@@ -159,6 +195,32 @@ pub struct SensorSpec {
     pub body_diameter_m: f64,
     /// From the body's distal end to the near edge of element 0, m.
     pub distal_margin_m: f64,
+    /// How the body hangs on the rod's end (the seed's pin joint); absent: level and
+    /// directly under the rod's tip, as the robot's model assumes.
+    pub mount: Option<MountSpec>,
+}
+
+/// The sensor body's pin joint at the rod's end. The pin sits on the body's axis above the
+/// element line's centre (where the robot's model puts the tip).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MountSpec {
+    pub pin: PinAxis,
+}
+
+/// Which way the pin runs, relative to the element line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PinAxis {
+    /// Along the line: the body swings freely as the rod tilts along the artery, keeping
+    /// the elements down, but tilts with the rod sideways: the element line tilts against
+    /// the tissue by the rod's lateral tilt (one end presses harder, the other may lift) and
+    /// its centre moves sideways by `r sin β`.
+    AlongLine,
+    /// Across the line: the body rocks freely in the line's plane (its load centre stays
+    /// under the pin, the pulse cannot tilt it), but turns with the rod's tilt along the
+    /// artery about its own axis, which carries the element strip off the bottom of the
+    /// cylinder by that angle (`r sin α` along the artery, less load).
+    AcrossLine,
 }
 
 impl Default for SensorSpec {
@@ -170,6 +232,7 @@ impl Default for SensorSpec {
             body_length_m: 0.034,
             body_diameter_m: 0.009,
             distal_margin_m: 0.001,
+            mount: None,
         }
     }
 }
@@ -200,6 +263,10 @@ pub struct PivotSpec {
     pub offset_m: [f64; 3],
     /// Lateral stiffness of the incision point, N/m; absent: rigid.
     pub lateral_stiffness_n_per_m: Option<f64>,
+    /// Dry-friction hysteresis of a rubber or foam incision: a friction element (as stiff as
+    /// the incision, in parallel with it) that slips at this force, N; absent: a linear
+    /// spring. Needs `lateral_stiffness_n_per_m`.
+    pub hysteresis_slip_n: Option<f64>,
 }
 
 impl Default for PivotSpec {
@@ -207,6 +274,7 @@ impl Default for PivotSpec {
         Self {
             offset_m: [0.0; 3],
             lateral_stiffness_n_per_m: None,
+            hysteresis_slip_n: None,
         }
     }
 }

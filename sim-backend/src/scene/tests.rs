@@ -164,3 +164,50 @@ fn the_daemons_default_config_names_a_scene_that_loads() {
     let scene = load(&sim.scene, None).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(scene.name, "seed-arc-145");
 }
+
+#[test]
+fn the_new_physics_options_are_checked() {
+    let check = |extra: &str, replace: Option<(&str, &str)>, field: &str| {
+        let mut src = minimal(extra);
+        if let Some((a, b)) = replace {
+            src = src.replace(a, b);
+        }
+        let e = config::load_str::<Scene>("bad.ron", &src).unwrap_err();
+        assert!(e.problems.iter().any(|p| p.field == field), "{field}: {e}");
+    };
+    check(
+        "  pivot: (hysteresis_slip_n: 0.1),\n",
+        None,
+        "pivot.hysteresis_slip_n",
+    );
+    check(
+        "",
+        Some((
+            "wall_m: 0.001,",
+            "wall_m: 0.001,\n    kernel: Fem((tissue: (e_pa: 2e4, nu: 0.45), wall: (e_pa: 2e4, nu: 0.45), wall_flattened: true)),",
+        )),
+        "artery.kernel.Fem.wall_flattened",
+    );
+    check(
+        "",
+        Some((
+            "wall_m: 0.001,",
+            "wall_m: 0.001,\n    kernel: Fem((tissue: (e_pa: 2e4, nu: 0.45), wall: (e_pa: 2e4, nu: 0.45), backing_gap_m: 0.0001)),",
+        )),
+        "artery.kernel.Fem.backing_gap_m",
+    );
+    check(
+        "",
+        Some((
+            "wall_m: 0.001,",
+            "wall_m: 0.001,\n    coupling: HoldDown(reference_normal_n: 0.0),",
+        )),
+        "artery.coupling.HoldDown.reference_normal_n",
+    );
+    // And the good forms load.
+    let src = minimal("  sensor: (mount: (pin: AlongLine)),\n  placed_by: Eye,\n")
+        .replace("wall_m: 0.001,", "wall_m: 0.001,\n    kernel: Applanation,");
+    let s: Scene = config::load_str("ok.ron", &src).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.placed_by, Placing::Eye);
+    assert!(matches!(s.artery.kernel, PressureKernel::Applanation));
+}

@@ -122,6 +122,34 @@ impl Validate for ArterySpec {
                 "moduli must be positive and Poisson's ratios in (-1, 0.5)",
             );
             v.check(spec.refine <= 3, "kernel.Fem.refine", "must be at most 3");
+            if let Some(g) = spec.backing_gap_m {
+                // The mesher needs 1.15 meshed radii below the centre (a hole's mesh has a
+                // ring of 0.25 lumen radii around it); 1.2 keeps a margin.
+                let (lumen, wall) = if spec.wall_flattened {
+                    (self.inner_radius_m + self.wall_m, 0.0)
+                } else {
+                    (self.inner_radius_m, self.wall_m)
+                };
+                let meshed = if wall > 0.0 {
+                    lumen + wall
+                } else {
+                    1.25 * lumen
+                };
+                let least = 1.2 * meshed - (lumen + wall);
+                v.check(
+                    g.is_finite() && g >= least && g <= 0.1,
+                    "kernel.Fem.backing_gap_m",
+                    format!(
+                        "must be between {:.2} mm (room for the tube's mesh) and 100 mm",
+                        least * 1e3
+                    ),
+                );
+            }
+            v.check(
+                !spec.wall_flattened || spec.backing_gap_m.is_some(),
+                "kernel.Fem.wall_flattened",
+                "a tube is flattened against a backing: give backing_gap_m",
+            );
             let r_out = self.inner_radius_m + self.wall_m;
             v.check(
                 self.depth_m >= 1.2 * r_out,
@@ -130,6 +158,14 @@ impl Validate for ArterySpec {
                     "the FEM kernel needs the tube's centre at least 1.2 outer radii deep ({:.2} mm)",
                     1.2 * r_out * 1e3
                 ),
+            );
+        }
+        if let PulseCoupling::HoldDown { reference_normal_n } = self.coupling {
+            v.in_range(
+                "coupling.HoldDown.reference_normal_n",
+                reference_normal_n,
+                0.01,
+                100.0,
             );
         }
         for (depth, radius, field) in ends {
@@ -200,6 +236,7 @@ impl Validate for PulseSpec {
                 heart_rate_hz,
                 interval_sd_s,
                 pressure_sd_fraction,
+                rate_change,
             } => {
                 v.in_range("systolic_pa", systolic_pa, 0.0, 1.0e5);
                 v.in_range("diastolic_pa", diastolic_pa, 0.0, 1.0e5);
@@ -211,6 +248,13 @@ impl Validate for PulseSpec {
                 v.in_range("heart_rate_hz", heart_rate_hz, 0.3, 4.0);
                 v.in_range("interval_sd_s", interval_sd_s, 0.0, 0.5);
                 v.in_range("pressure_sd_fraction", pressure_sd_fraction, 0.0, 0.5);
+                if let Some(c) = rate_change {
+                    v.at("rate_change", |v| {
+                        v.in_range("to_hz", c.to_hz, 0.3, 4.0);
+                        v.in_range("start_s", c.start_s, 0.0, 1.0e5);
+                        v.in_range("duration_s", c.duration_s, 0.0, 1.0e5);
+                    });
+                }
             }
             PulseSpec::Absent => {}
         }
@@ -300,6 +344,14 @@ impl Validate for PivotSpec {
         }
         if let Some(k) = self.lateral_stiffness_n_per_m {
             v.in_range("lateral_stiffness_n_per_m", k, 1.0, 1.0e8);
+        }
+        if let Some(f) = self.hysteresis_slip_n {
+            v.in_range("hysteresis_slip_n", f, 0.0, 100.0);
+            v.check(
+                self.lateral_stiffness_n_per_m.is_some(),
+                "hysteresis_slip_n",
+                "an incision's hysteresis needs its lateral_stiffness_n_per_m",
+            );
         }
     }
 }

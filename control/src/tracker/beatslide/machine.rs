@@ -1,0 +1,1266 @@
+//! `beatslide` as a state machine fed one tactile frame at a time.
+//!
+//! Seeding: each [`Tracker::mark`] acquires at rest and searches the window for a pulse of
+//! unknown rate ([`PulseSearch`]); a weak pulse extends the window (up to
+//! `mark_max_window_s`). The first mark gives the beat clock and the pulse waveform.
+//! Tracking, after [`Tracker::start`]: the sensor slides along the path the
+//! [`PathFilter`] predicts; once per window of `K` beats (`K` = 1 for a strong pulse) the
+//! window is analysed ([`analyse_window`]) and its fix, if the pulse is clear and on the
+//! predicted path, is reported, updates the path filter and the beat clock, and sets the
+//! next target and speed. Windows that find nothing: the sensor keeps going toward its
+//! target for up to `sliding_misses` windows (never more than `max_blind_m` past the last
+//! fix), then stops and searches at rest; if that fails it goes back to the last fix and
+//! searches there; if that fails too, tracking ends `Lost`, at rest.
+//! docs/tracker-beatslide.md describes every rule.
+
+use super::beat_fix::{BeatFix, BeatMiss, SpatialPrior, analyse_window};
+use super::drag::Drag;
+use super::history::History;
+use super::params::BeatSlideParams;
+use super::path_filter::{Observation, PathFilter, PathFilterError, PathFilterSettings};
+use crate::classify::{ClassifyParams, Kind, Window as ClassifyWindow};
+use crate::frames::SurfacePoint;
+use crate::sensor::ArrayGeometry;
+use crate::signal::beat_clock::{BeatClock, BeatClockSettings};
+use crate::signal::harmonic::{Waveform, waveform_value};
+use crate::signal::kernel_fit::{KernelFit, KernelFitError, fit_kernel};
+use crate::signal::noise_level::NoiseLevel;
+use crate::signal::pulse_search::{PulseFound, PulseSearch, PulseSearchSettings, SearchMiss};
+use crate::tracker::event_queue::EventQueue;
+use crate::tracker::{
+    EndReason, LocatedPoint, MotionCommand, TrackLimit, Tracker, TrackerError, TrackerEvent,
+    TrackerInput, TrackerOutput, TrackerPhase,
+};
+
+/// The most events one analysis can queue (a period, a point or a miss, a backtrack or
+/// an end).
+const EVENTS_PER_ANALYSIS: usize = 3;
+
+/// How far a beat may come early or late against the clock, in periods.
+const MAX_DELAY_FRACTION: f64 = 0.25;
+
+/// Samples averaged per block in the search at rest (25 Hz from 100 Hz).
+const SEARCH_DECIMATION: usize = 4;
+
+/// Whole cycles a window at rest must hold for a period to be searched.
+const MIN_CYCLES: f64 = 2.5;
+
+/// The period change, as a fraction, that is reported as a `Pulse` event.
+const PERIOD_REPORT_FRACTION: f64 = 0.02;
+
+/// How far a search at rest looks around the known period (fraction).
+const KNOWN_PERIOD_RANGE: f64 = 0.3;
+
+/// Slowest sliding: the travel per fix is never cut below this, m.
+const MIN_TRAVEL_PER_FIX_M: f64 = 0.001;
+
+/// The target is never nearer than this along the predicted path, m.
+const MIN_LOOKAHEAD_M: f64 = 0.02;
+
+/// A fix weaker than this fraction of the artery's usual SNR is refused.
+const USUAL_SNR_FRACTION: f64 = 0.5;
+
+/// A beat later (or earlier) than this many times the usual RMS lateness is refused, but
+/// never for less than `MIN_LATE_FRACTION` of a period; the RMS starts at
+/// `INITIAL_LATE_FRACTION` of a period.
+const LATE_FACTOR: f64 = 4.0;
+const MIN_LATE_FRACTION: f64 = 0.08;
+const INITIAL_LATE_FRACTION: f64 = 0.05;
+/// ... and weaker than this fraction of the usual SNR.
+const SPOILED_SNR_FRACTION: f64 = 0.75;
+
+/// A fix this surprising (normalized innovation squared) slows the slide by this factor.
+const SURPRISE_NIS: f64 = 4.0;
+const SURPRISE_SLOWDOWN: f64 = 0.6;
+
+/// Speed cap growth per accepted fix after a slowdown.
+const SPEED_RECOVERY: f64 = 1.15;
+
+/// Template learning rate from a clear beat.
+const TEMPLATE_RATE: f64 = 0.1;
+
+/// Progress along the path that forgives earlier returns, m.
+const PROGRESS_M: f64 = 0.005;
+
+/// Why a window or a search found no fix.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum Miss {
+    #[error(transparent)]
+    Search(#[from] SearchMiss),
+    #[error(transparent)]
+    Beat(#[from] BeatMiss),
+    #[error(transparent)]
+    Kernel(#[from] KernelFitError),
+    #[error("the pulse lies at the array's edge (element {element:.1})")]
+    AtEdge { element: f64 },
+    #[error("pulse SNR {snr:.1} is below {needed:.1}")]
+    Weak { snr: f64, needed: f64 },
+    #[error("the beat came {late_s:.3} s off the clock, far more than usual")]
+    Timing { late_s: f64 },
+    #[error("not on the predicted path: {0}")]
+    OffPath(#[from] PathFilterError),
+    #[error("slid the blind distance past the last fix without a fix")]
+    Blind,
+    #[error("went back to the last fix too often without progress")]
+    NoProgress,
+    #[error("neither the beat clock nor the window's coherent pattern shows an artery")]
+    Untimed,
+    #[error("no believed sensor position in the window")]
+    NoPosition,
+    #[error("no path model")]
+    NoModel,
+}
+
+/// Parameters the tracker cannot run with.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("beatslide: {0}")]
+pub struct InvalidParams(pub String);
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum State {
+    Seeding,
+    /// Acquiring at a manual placement since `since_s` (None until the sensor is at rest);
+    /// analysed once `window_s` is full.
+    Marking {
+        since_s: Option<f64>,
+        window_s: f64,
+    },
+    /// Sliding toward `target`; the current window began at `from_s` and lasts `len_s`.
+    Sliding {
+        from_s: Option<f64>,
+        len_s: f64,
+        misses: usize,
+        target: SurfacePoint,
+        speed_m_s: f64,
+    },
+    /// Holding after losing the pulse, until at rest; then a search (`attempt` 1 here, 2
+    /// back at the last fix).
+    Stopping {
+        frames: u64,
+        attempt: usize,
+    },
+    Searching {
+        since_s: Option<f64>,
+        attempt: usize,
+    },
+    /// Going back to the last fix.
+    Returning {
+        target: SurfacePoint,
+        frames: u64,
+    },
+    Finished(EndReason),
+}
+
+/// The pulse as known so far.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Pulse {
+    clock: BeatClock,
+    template: Waveform,
+    /// Peak-to-peak of the unit template (to report amplitudes in N).
+    template_pp: f64,
+    /// Kernel amplitude SNR one beat gives.
+    snr_per_beat: f64,
+    /// RMS of the beats' lateness against the clock, s.
+    late_rms_s: f64,
+    reported_period_s: f64,
+}
+
+/// `beatslide`: one localization per beat while sliding, sub-element, on a curvature path
+/// model.
+#[derive(Debug, Clone)]
+pub struct BeatSlide {
+    params: BeatSlideParams,
+    geometry: ArrayGeometry,
+    history: History,
+    noise: NoiseLevel,
+    search: PulseSearch,
+    untimed: ClassifyWindow,
+    pulse: Option<Pulse>,
+    spatial: SpatialPrior,
+    drag: Drag,
+    /// The seed marks as the path filter sees them, and as reported.
+    seeds: Vec<Observation>,
+    seed_points: Vec<SurfacePoint>,
+    seed_sensors: Vec<SurfacePoint>,
+    filter: Option<PathFilter>,
+    last_fix: Option<SurfacePoint>,
+    path_length_m: f64,
+    progress_mark_m: f64,
+    returns: usize,
+    beats_per_fix: usize,
+    speed_cap_m_s: f64,
+    limit: TrackLimit,
+    state: State,
+    pending_end: Option<EndReason>,
+    events: EventQueue,
+    rejected_frames: u64,
+    last_miss: Option<Miss>,
+}
+
+/// Most seed points kept.
+const MAX_SEEDS: usize = 16;
+
+impl BeatSlide {
+    pub const NAME: &'static str = "beatslide";
+
+    /// Build the tracker; allocates every buffer it will use.
+    pub fn new(params: BeatSlideParams, geometry: ArrayGeometry) -> Result<Self, InvalidParams> {
+        let fs = geometry.sample_rate_hz;
+        if !(fs.is_finite() && fs > 0.0) {
+            return Err(InvalidParams(format!(
+                "sample rate must be positive, got {fs} Hz"
+            )));
+        }
+        if !(geometry.noise_sd_n.is_finite() && geometry.noise_sd_n > 0.0) {
+            return Err(InvalidParams(format!(
+                "noise SD must be positive, got {} N",
+                geometry.noise_sd_n
+            )));
+        }
+        if !(geometry.pitch_m.is_finite() && geometry.pitch_m > 0.0) {
+            return Err(InvalidParams(format!(
+                "element pitch must be positive, got {} m",
+                geometry.pitch_m
+            )));
+        }
+        check_params(&params, fs)?;
+        let longest_s = params.mark_max_window_s.max(params.search_window_s).max(
+            params.max_beats_per_fix as f64 * params.max_period_s * (1.0 + MAX_DELAY_FRACTION),
+        );
+        let capacity = (longest_s * fs * 1.1).ceil() as usize + 16;
+        Ok(Self {
+            params,
+            geometry,
+            history: History::new(capacity),
+            noise: NoiseLevel::new(capacity),
+            search: PulseSearch::new(capacity),
+            untimed: ClassifyWindow::new(capacity),
+            pulse: None,
+            spatial: SpatialPrior {
+                element: 4.5,
+                width_m: 0.005,
+            },
+            drag: Drag::default(),
+            seeds: Vec::with_capacity(MAX_SEEDS),
+            seed_points: Vec::with_capacity(MAX_SEEDS),
+            seed_sensors: Vec::with_capacity(MAX_SEEDS),
+            filter: None,
+            last_fix: None,
+            path_length_m: 0.0,
+            progress_mark_m: 0.0,
+            returns: 0,
+            beats_per_fix: 1,
+            speed_cap_m_s: params.max_speed_m_s,
+            limit: TrackLimit::default(),
+            state: State::Seeding,
+            pending_end: None,
+            events: EventQueue::default(),
+            rejected_frames: 0,
+            last_miss: None,
+        })
+    }
+
+    pub fn params(&self) -> &BeatSlideParams {
+        &self.params
+    }
+
+    /// The beat clock's period, s.
+    pub fn period_estimate_s(&self) -> Option<f64> {
+        self.pulse.map(|p| p.clock.period_s())
+    }
+
+    /// Beats averaged into each fix now.
+    pub fn beats_per_fix(&self) -> usize {
+        self.beats_per_fix
+    }
+
+    /// The path model.
+    pub fn path_filter(&self) -> Option<&PathFilter> {
+        self.filter.as_ref()
+    }
+
+    /// Path length along the located points from the first seed, m.
+    pub fn path_length_m(&self) -> f64 {
+        self.path_length_m
+    }
+
+    /// Frames refused (non-finite).
+    pub fn rejected_frames(&self) -> u64 {
+        self.rejected_frames
+    }
+
+    /// Why the last window or search found nothing.
+    pub fn last_miss(&self) -> Option<Miss> {
+        self.last_miss
+    }
+
+    fn emit(&mut self, event: TrackerEvent) {
+        // Room for a whole analysis is checked before each one; overflow would mean that
+        // accounting is broken.
+        let pushed = self.events.push(event);
+        debug_assert!(pushed.is_ok(), "tracker event queue overflow");
+    }
+
+    fn finish(&mut self, reason: EndReason, t_s: f64) {
+        self.state = State::Finished(reason);
+        self.emit(TrackerEvent::Finished { t_s, reason });
+    }
+
+    fn search_settings(&self) -> PulseSearchSettings {
+        let (lo, hi) = match self.pulse {
+            Some(p) => {
+                let period = p.clock.period_s();
+                (
+                    (period * (1.0 - KNOWN_PERIOD_RANGE)).max(self.params.min_period_s),
+                    (period * (1.0 + KNOWN_PERIOD_RANGE)).min(self.params.max_period_s),
+                )
+            }
+            None => (self.params.min_period_s, self.params.max_period_s),
+        };
+        PulseSearchSettings {
+            min_period_s: lo,
+            max_period_s: hi,
+            threshold: self.params.detection_threshold,
+            decimation: SEARCH_DECIMATION,
+            min_cycles: MIN_CYCLES,
+            coherent_s: self.params.coherent_s,
+        }
+    }
+
+    /// Search the frames since `since_s` at rest; on success, the kernel fit too.
+    fn search_at_rest(
+        &mut self,
+        since_s: f64,
+    ) -> Result<(PulseFound, KernelFit, SurfacePoint), Miss> {
+        let settings = self.search_settings();
+        let window = self.history.since(since_s);
+        let sensor = window.mean_sensor().ok_or(Miss::NoPosition)?;
+        let sigma = self
+            .noise
+            .estimate(window.frames())
+            .unwrap_or(self.geometry.noise_sd_n)
+            .max(self.geometry.noise_sd_n);
+        let found = self.search.search(window.frames(), sigma, &settings)?;
+        // Which sign is the pulse? The kernel with its small negative lobes fits one far
+        // better than the other (in time a square wave and its inverse differ only by half
+        // a period).
+        let se = found.amplitudes.se_per_sigma * sigma;
+        let flipped = found.flipped();
+        let (found, mut fit) = match (
+            fit_kernel(&found.amplitudes.amplitude_n, se, &self.geometry),
+            fit_kernel(&flipped.amplitudes.amplitude_n, se, &self.geometry),
+        ) {
+            (Ok(a), Ok(b)) if b.chi2 < a.chi2 => (flipped, b),
+            (Ok(a), _) => (found, a),
+            (Err(_), Ok(b)) => (flipped, b),
+            (Err(e), Err(_)) => return Err(e.into()),
+        };
+        if fit.at_edge || !fit.offset_se_m.is_finite() {
+            // At the edge the position is only a bound: keep it, with an uncertainty of
+            // two pitches.
+            fit.offset_se_m = 2.0 * self.geometry.pitch_m;
+        }
+        Ok((found, fit, sensor))
+    }
+
+    /// Take the pulse's rate, phase and waveform from a search at rest.
+    fn learn_pulse(&mut self, found: &PulseFound, fit: &KernelFit, window_s: f64, t_s: f64) {
+        let settings = BeatClockSettings {
+            min_period_s: self.params.min_period_s,
+            max_period_s: self.params.max_period_s,
+            ..BeatClockSettings::default()
+        };
+        let beats = (window_s / found.phase.period_s).max(1.0);
+        let snr_per_beat = fit.snr() / beats.sqrt();
+        let pulse = match self.pulse {
+            None => Pulse {
+                clock: BeatClock::new(found.phase, settings),
+                template: found.waveform,
+                template_pp: peak_to_peak(&found.waveform),
+                snr_per_beat,
+                late_rms_s: INITIAL_LATE_FRACTION * found.phase.period_s,
+                reported_period_s: f64::NAN,
+            },
+            Some(mut p) => {
+                p.clock.reset(found.phase);
+                let blended = p.template + found.waveform;
+                let norm = blended.norm();
+                if norm > 0.0 {
+                    p.template = blended / norm;
+                    p.template_pp = peak_to_peak(&p.template);
+                }
+                p.snr_per_beat = 0.5 * (p.snr_per_beat + snr_per_beat);
+                p
+            }
+        };
+        self.pulse = Some(pulse);
+        self.spatial = SpatialPrior {
+            element: fit.element,
+            width_m: fit.width_m,
+        };
+        self.choose_beats_per_fix();
+        self.report_period(t_s);
+    }
+
+    fn report_period(&mut self, t_s: f64) {
+        if let Some(p) = &mut self.pulse {
+            let period_s = p.clock.period_s();
+            let reported = p.reported_period_s;
+            if !(reported.is_finite()
+                && ((period_s - reported) / reported).abs() < PERIOD_REPORT_FRACTION)
+            {
+                p.reported_period_s = period_s;
+                self.emit(TrackerEvent::Pulse { t_s, period_s });
+            }
+        }
+    }
+
+    fn choose_beats_per_fix(&mut self) {
+        if let Some(p) = self.pulse {
+            let snr = p.snr_per_beat.max(1e-3);
+            let k = (self.params.target_snr / snr).powi(2).ceil();
+            self.beats_per_fix = (k.max(1.0) as usize).min(self.params.max_beats_per_fix);
+        }
+    }
+
+    fn located(
+        &self,
+        t_s: f64,
+        point: SurfacePoint,
+        sensor: SurfacePoint,
+        fit: &KernelFit,
+        seed: bool,
+    ) -> LocatedPoint {
+        let pp = self.pulse.map_or(1.0, |p| p.template_pp);
+        LocatedPoint {
+            t_s,
+            point,
+            sensor,
+            element: fit.element,
+            amplitude_n: fit.amplitude * pp,
+            seed,
+        }
+    }
+
+    /// The lateral SD of a fix for the path filter. Beyond the outer elements' centres the
+    /// position is extrapolated from a flank: that distance counts as uncertainty too.
+    fn fix_sd(&self, fit: &KernelFit) -> f64 {
+        let last = (crate::types::ELEMENTS - 1) as f64;
+        let outside = (-fit.element).max(fit.element - last).max(0.0) * self.geometry.pitch_m;
+        fit.offset_se_m
+            .hypot(self.params.fix_floor_m)
+            .hypot(outside)
+    }
+
+    fn record(&mut self, point: SurfacePoint) {
+        if let Some(previous) = self.last_fix {
+            self.path_length_m += previous.distance_to(&point);
+        }
+        self.last_fix = Some(point);
+        if self.path_length_m > self.progress_mark_m + PROGRESS_M {
+            self.returns = 0;
+        }
+    }
+
+    fn length_reached(&self) -> bool {
+        self.limit
+            .length_m
+            .is_some_and(|length_m| self.path_length_m >= length_m)
+    }
+
+    // ---- seeding ----
+
+    fn step_marking(&mut self, input: &TrackerInput<'_>, since_s: Option<f64>, window_s: f64) {
+        let t = input.frame.t_s;
+        if !input.settled || !input.sensor.is_finite() {
+            self.state = State::Marking {
+                since_s: None,
+                window_s,
+            };
+            return;
+        }
+        let since = since_s.unwrap_or(t);
+        self.state = State::Marking {
+            since_s: Some(since),
+            window_s,
+        };
+        if t - since + 1e-9 < window_s || !self.events.has_room_for(EVENTS_PER_ANALYSIS) {
+            return;
+        }
+        match self.search_at_rest(since) {
+            Ok((found, fit, sensor)) => {
+                self.learn_pulse(&found, &fit, t - since, t);
+                let lag_dir = self.history.since(since).mean_lag();
+                let raw = SurfacePoint::new(sensor.x_m, sensor.z_m + fit.offset_z_m);
+                // Where the sensor trailed before this mark is unknown until the robot has
+                // been seen to move: that part of the lag is uncertainty.
+                let known = lag_dir[0].hypot(lag_dir[1]).min(1.0);
+                let observation = Observation {
+                    point: raw,
+                    sd_m: self
+                        .fix_sd(&fit)
+                        .hypot(self.params.lag_prior_m * (1.0 - known)),
+                    lag_dir,
+                };
+                let lag = self.params.lag_prior_m;
+                let point =
+                    SurfacePoint::new(raw.x_m - lag * lag_dir[0], raw.z_m - lag * lag_dir[1]);
+                let located = self.located(t, point, sensor, &fit, true);
+                if self.seeds.len() == MAX_SEEDS {
+                    self.seeds.remove(0);
+                    self.seed_points.remove(0);
+                    self.seed_sensors.remove(0);
+                }
+                self.seeds.push(observation);
+                self.seed_points.push(point);
+                self.seed_sensors.push(sensor);
+                self.emit(TrackerEvent::Located(located));
+                self.state = State::Seeding;
+            }
+            Err(why) => {
+                self.last_miss = Some(why);
+                if window_s + self.params.mark_extend_s <= self.params.mark_max_window_s + 1e-9 {
+                    self.state = State::Marking {
+                        since_s: Some(since),
+                        window_s: window_s + self.params.mark_extend_s,
+                    };
+                } else {
+                    let at = self
+                        .history
+                        .since(since)
+                        .mean_sensor()
+                        .unwrap_or(input.sensor);
+                    self.emit(TrackerEvent::Missed { t_s: t, at });
+                    self.state = State::Seeding;
+                }
+            }
+        }
+    }
+
+    // ---- sliding ----
+
+    /// The next target and speed from the path filter, for the sensor at `sensor`.
+    fn plan(&self, sensor: SurfacePoint) -> Option<(SurfacePoint, f64)> {
+        let filter = self.filter.as_ref()?;
+        let period = self.pulse.map_or(1.0, |p| p.clock.period_s());
+        let window_s = self.beats_per_fix as f64 * period;
+        let (s_now, _) = filter.to_local(sensor);
+        let s_now = s_now.max(0.0);
+        let mut travel = self
+            .params
+            .max_travel_per_fix_m
+            .min(self.speed_cap_m_s * window_s);
+        // The step from the model's confidence: shorten it until the path one step past
+        // the sensor is predicted within `prediction_sd_m`.
+        for _ in 0..30 {
+            if travel <= MIN_TRAVEL_PER_FIX_M
+                || filter.predict(s_now + travel).sd_m <= self.params.prediction_sd_m
+            {
+                break;
+            }
+            travel *= 0.85;
+        }
+        let travel = travel.max(MIN_TRAVEL_PER_FIX_M);
+        let speed = (travel / window_s).min(self.speed_cap_m_s);
+        // Aim at least `MIN_LOOKAHEAD_M` ahead even when the steps are short (slow speed
+        // settings): the motion then stays along the artery, so the lag, still uncertain
+        // early on, trails along the path instead of across it.
+        let s_target = (s_now + (2.0 * travel).max(MIN_LOOKAHEAD_M)).min(self.params.max_blind_m);
+        let target = filter.predict(s_target).point;
+        target.is_finite().then_some((target, speed))
+    }
+
+    fn start_sliding(&mut self, sensor: SurfacePoint, t_s: f64) {
+        match self.plan(sensor) {
+            Some((target, speed_m_s)) => {
+                self.state = State::Sliding {
+                    from_s: None,
+                    len_s: self.window_len_s(),
+                    misses: 0,
+                    target,
+                    speed_m_s,
+                };
+            }
+            None => self.finish(EndReason::Lost, t_s),
+        }
+    }
+
+    fn window_len_s(&self) -> f64 {
+        self.beats_per_fix as f64 * self.pulse.map_or(1.0, |p| p.clock.period_s())
+    }
+
+    fn step_sliding(&mut self, input: &TrackerInput<'_>) {
+        let State::Sliding {
+            from_s,
+            len_s,
+            misses,
+            target,
+            speed_m_s,
+        } = self.state
+        else {
+            return;
+        };
+        let t = input.frame.t_s;
+        let from = from_s.unwrap_or(t);
+        self.state = State::Sliding {
+            from_s: Some(from),
+            len_s,
+            misses,
+            target,
+            speed_m_s,
+        };
+        // Never further than `max_blind_m` beyond the last fix along the path.
+        if let Some(f) = &self.filter
+            && f.to_local(input.sensor).0 > self.params.max_blind_m
+        {
+            self.last_miss = Some(Miss::Blind);
+            self.state = State::Stopping {
+                frames: 0,
+                attempt: 1,
+            };
+            return;
+        }
+        if t - from + 1e-9 < len_s || !self.events.has_room_for(EVENTS_PER_ANALYSIS) {
+            return;
+        }
+        let timed = self.analyse(from).map_err(Miss::from).and_then(|fix| {
+            let point = self.accept(&fix)?;
+            Ok((fix, point))
+        });
+        // A beat the clock could not time (irregular beats): the pulse's spatial pattern
+        // without any timing, from the window's coherent part (control::classify).
+        let fix = match timed {
+            Err(Miss::Weak { .. } | Miss::Timing { .. }) => {
+                self.untimed_fix(from).and_then(|fix| {
+                    let point = self.accept(&fix)?;
+                    Ok((fix, point))
+                })
+            }
+            other => other,
+        };
+        match fix {
+            Ok((fix, point)) => {
+                self.after_fix(&fix, point, input.sensor, t);
+                return;
+            }
+            Err(why) => self.last_miss = Some(why),
+        }
+        if misses + 1 >= self.params.sliding_misses {
+            self.state = State::Stopping {
+                frames: 0,
+                attempt: 1,
+            };
+        } else {
+            self.state = State::Sliding {
+                from_s: Some(t),
+                len_s: self.window_len_s(),
+                misses: misses + 1,
+                target,
+                speed_m_s,
+            };
+        }
+    }
+
+    /// A fix from the window's coherent spatial pattern, with no timing model: the
+    /// leading eigenvector of the elements' covariance (`control::classify`'s features),
+    /// when the classifier calls the window an artery. Its sign is the one the kernel fits
+    /// better.
+    fn untimed_fix(&mut self, from_s: f64) -> Result<BeatFix, Miss> {
+        let window = self.history.since(from_s);
+        let sensor = window.mean_sensor().ok_or(Miss::NoPosition)?;
+        let (Some(t0), Some(t1)) = (window.first_t_s(), window.last_t_s()) else {
+            return Err(Miss::NoPosition);
+        };
+        self.untimed.clear();
+        for f in window.frames() {
+            // Frames in the history are finite; a refusal only shortens the window.
+            let _ = self.untimed.push(f);
+        }
+        let params = ClassifyParams {
+            noise_sd_n: self.geometry.noise_sd_n,
+            ..ClassifyParams::default()
+        };
+        let class = self
+            .untimed
+            .classify(&params, None)
+            .map_err(|_| Miss::Beat(BeatMiss::Empty))?;
+        if !matches!(class.kind, Kind::Artery | Kind::ArteryStenosisSuspected) {
+            return Err(Miss::Untimed);
+        }
+        let f = class.features;
+        // Each element's coherent swing has a standard error of about 2√2 σ/√n.
+        let se = 2.0 * std::f64::consts::SQRT_2 * f.noise_sd_n / (f.frames.max(1) as f64).sqrt();
+        let flipped = f.swing_n.map(|v| -v);
+        let kernel = match (
+            fit_kernel(&f.swing_n, se, &self.geometry),
+            fit_kernel(&flipped, se, &self.geometry),
+        ) {
+            (Ok(a), Ok(b)) if b.chi2 < a.chi2 => b,
+            (Ok(a), _) => a,
+            (Err(_), Ok(b)) => b,
+            (Err(e), Err(_)) => return Err(e.into()),
+        };
+        Ok(BeatFix {
+            t_mid_s: 0.5 * (t0 + t1),
+            late_s: 0.0,
+            kernel,
+            sensor,
+            lag_dir: window.mean_lag(),
+            noise_sd_n: f.noise_sd_n,
+            aligned: Waveform::zeros(),
+        })
+    }
+
+    fn analyse(&mut self, from_s: f64) -> Result<BeatFix, BeatMiss> {
+        let Some(pulse) = self.pulse else {
+            return Err(BeatMiss::Empty);
+        };
+        let window = self.history.since(from_s);
+        analyse_window(
+            &window,
+            pulse.clock.phase(),
+            &pulse.template,
+            self.spatial,
+            MAX_DELAY_FRACTION,
+            self.geometry.noise_sd_n,
+            &self.geometry,
+            &mut self.noise,
+        )
+    }
+
+    /// Is this fix the artery? A clear pulse, placed on the array, on the predicted path.
+    /// Returns the artery point with the sensor's lag removed.
+    fn accept(&mut self, fix: &BeatFix) -> Result<SurfacePoint, Miss> {
+        let k = &fix.kernel;
+        // A pulse much weaker than this artery's usual is the artery leaving the array (or
+        // something else): not a fix.
+        let usual = self
+            .pulse
+            .map_or(0.0, |p| p.snr_per_beat * (self.beats_per_fix as f64).sqrt());
+        let needed = self.params.fix_snr.max(USUAL_SNR_FRACTION * usual);
+        if k.snr().is_nan() || k.snr() < needed {
+            return Err(Miss::Weak {
+                snr: k.snr(),
+                needed,
+            });
+        }
+        if k.at_edge || !k.offset_se_m.is_finite() {
+            return Err(Miss::AtEdge { element: k.element });
+        }
+        // A beat far off the clock, for a clock that usually keeps time, and weaker than
+        // usual, is a window spoiled by something else (the artery sweeping across the
+        // array, a lump). A clear beat off the clock is the heart changing its rate.
+        let period = self.window_len_s() / self.beats_per_fix as f64;
+        let usual_late = self.pulse.map_or(0.0, |p| p.late_rms_s);
+        let late_limit = (LATE_FACTOR * usual_late)
+            .max(MIN_LATE_FRACTION * period)
+            .min(0.95 * MAX_DELAY_FRACTION * period);
+        if fix.late_s.abs() > late_limit && k.snr() < SPOILED_SNR_FRACTION * usual {
+            return Err(Miss::Timing { late_s: fix.late_s });
+        }
+        let observation = Observation {
+            point: fix.point(),
+            sd_m: self.fix_sd(k),
+            lag_dir: fix.lag_dir,
+        };
+        let filter = self.filter.as_mut().ok_or(Miss::NoModel)?;
+        let nis = filter.update(&observation)?;
+        let corrected = filter.corrected(&observation);
+        // A surprising fix means the path turned away from the model: slow down (like the
+        // seed's halving of the step); clear fixes speed up again.
+        if nis > SURPRISE_NIS {
+            self.speed_cap_m_s = (self.speed_cap_m_s * SURPRISE_SLOWDOWN)
+                .max(MIN_TRAVEL_PER_FIX_M / self.window_len_s().max(1e-3));
+        }
+        Ok(corrected)
+    }
+
+    fn after_fix(&mut self, fix: &BeatFix, point: SurfacePoint, sensor: SurfacePoint, t_s: f64) {
+        let located = self.located(fix.t_mid_s, point, fix.sensor, &fix.kernel, false);
+        self.record(point);
+        self.emit(TrackerEvent::Located(located));
+        self.spatial = SpatialPrior {
+            element: fix.kernel.element,
+            width_m: fix.kernel.width_m,
+        };
+        let beats = self.beats_per_fix as f64;
+        if let Some(p) = &mut self.pulse {
+            let confidence = (fix.kernel.snr() / self.params.target_snr).powi(2).min(1.0);
+            p.clock.correct(fix.t_mid_s, fix.late_s, confidence);
+            p.late_rms_s = (0.8 * p.late_rms_s.powi(2) + 0.2 * fix.late_s.powi(2)).sqrt();
+            let snr_beat = fix.kernel.snr() / beats.sqrt();
+            p.snr_per_beat = 0.7 * p.snr_per_beat + 0.3 * snr_beat;
+            let norm = fix.aligned.norm();
+            if norm > 0.0 && confidence >= 1.0 {
+                let learned =
+                    p.template * (1.0 - TEMPLATE_RATE) + fix.aligned / norm * TEMPLATE_RATE;
+                let n = learned.norm();
+                if n > 0.0 {
+                    p.template = learned / n;
+                    p.template_pp = peak_to_peak(&p.template);
+                }
+            }
+        }
+        self.report_period(t_s);
+        self.choose_beats_per_fix();
+        self.speed_cap_m_s = (self.speed_cap_m_s * SPEED_RECOVERY).min(self.params.max_speed_m_s);
+        if self.length_reached() {
+            self.finish(EndReason::LengthReached, t_s);
+            return;
+        }
+        self.start_sliding(sensor, t_s);
+        if let State::Sliding { from_s, .. } = &mut self.state {
+            *from_s = Some(t_s);
+        }
+    }
+
+    // ---- lost ----
+
+    fn step_stopping(&mut self, input: &TrackerInput<'_>, frames: u64, attempt: usize) {
+        if frames > 0 && input.settled {
+            self.state = State::Searching {
+                since_s: Some(input.frame.t_s),
+                attempt,
+            };
+        } else {
+            self.state = State::Stopping {
+                frames: frames.saturating_add(1),
+                attempt,
+            };
+        }
+    }
+
+    fn step_searching(&mut self, input: &TrackerInput<'_>, since_s: Option<f64>, attempt: usize) {
+        let t = input.frame.t_s;
+        if !input.settled || !input.sensor.is_finite() {
+            self.state = State::Searching {
+                since_s: None,
+                attempt,
+            };
+            return;
+        }
+        let since = since_s.unwrap_or(t);
+        self.state = State::Searching {
+            since_s: Some(since),
+            attempt,
+        };
+        if t - since + 1e-9 < self.params.search_window_s
+            || !self.events.has_room_for(EVENTS_PER_ANALYSIS)
+        {
+            return;
+        }
+        let found = self.search_at_rest(since).and_then(|(found, fit, sensor)| {
+            // Re-finding the artery needs it on the array, not at its edge.
+            if !(fit.element >= -0.5 && fit.element <= crate::types::ELEMENTS as f64 - 0.5)
+                || fit.offset_se_m >= 2.0 * self.geometry.pitch_m
+            {
+                return Err(Miss::AtEdge {
+                    element: fit.element,
+                });
+            }
+            let observation = Observation {
+                point: SurfacePoint::new(sensor.x_m, sensor.z_m + fit.offset_z_m),
+                sd_m: self.fix_sd(&fit),
+                lag_dir: self.history.since(since).mean_lag(),
+            };
+            let filter = self.filter.as_mut().ok_or(Miss::NoModel)?;
+            // The model may have drifted while the pulse was missing: widen it first.
+            let mut widened = *filter;
+            widened.inflate(2.0);
+            widened.update(&observation)?;
+            *filter = widened;
+            Ok((found, fit, sensor, filter.corrected(&observation)))
+        });
+        match found {
+            Ok((found, fit, sensor, point)) => {
+                self.learn_pulse(&found, &fit, t - since, t);
+                let located = self.located(t, point, sensor, &fit, false);
+                self.record(point);
+                self.emit(TrackerEvent::Located(located));
+                if attempt > 1 {
+                    self.returns += 1;
+                    self.progress_mark_m = self.path_length_m;
+                }
+                if self.length_reached() {
+                    self.finish(EndReason::LengthReached, t);
+                } else if self.returns > self.params.max_returns {
+                    self.last_miss = Some(Miss::NoProgress);
+                    self.finish(EndReason::Lost, t);
+                } else {
+                    // Carry on more carefully.
+                    self.speed_cap_m_s = (0.5 * self.speed_cap_m_s)
+                        .max(MIN_TRAVEL_PER_FIX_M / self.window_len_s().max(1e-3));
+                    self.start_sliding(input.sensor, t);
+                    if let State::Sliding { from_s, .. } = &mut self.state {
+                        *from_s = Some(t);
+                    }
+                }
+            }
+            Err(why) => {
+                self.last_miss = Some(why);
+                let at = self
+                    .history
+                    .since(since)
+                    .mean_sensor()
+                    .unwrap_or(input.sensor);
+                self.emit(TrackerEvent::Missed { t_s: t, at });
+                match (attempt, self.last_fix) {
+                    (1, Some(toward)) => {
+                        self.emit(TrackerEvent::Backtracking { t_s: t, toward });
+                        self.state = State::Returning {
+                            target: toward,
+                            frames: 0,
+                        };
+                    }
+                    _ => self.finish(EndReason::Lost, t),
+                }
+            }
+        }
+    }
+
+    fn step_returning(&mut self, input: &TrackerInput<'_>, target: SurfacePoint, frames: u64) {
+        if frames > 0 && input.settled {
+            self.state = State::Searching {
+                since_s: Some(input.frame.t_s),
+                attempt: 2,
+            };
+        } else {
+            self.state = State::Returning {
+                target,
+                frames: frames.saturating_add(1),
+            };
+        }
+    }
+
+    fn motion(&self) -> MotionCommand {
+        match self.state {
+            State::Sliding {
+                target, speed_m_s, ..
+            } => MotionCommand::MoveTo {
+                target: self.belief_from_sensor(target),
+                speed_m_s,
+            },
+            State::Returning { target, .. } => MotionCommand::MoveTo {
+                target: self.belief_from_sensor(target),
+                speed_m_s: self.params.return_speed_m_s,
+            },
+            _ => MotionCommand::Hold,
+        }
+    }
+
+    /// Where the sensor is for a believed position: pushed outward from the point below
+    /// the pivot (the tissue origin) by the tilt deflection.
+    fn sensor_from_belief(&self, believed: SurfacePoint) -> SurfacePoint {
+        let g = 1.0 + self.params.tilt_deflection;
+        SurfacePoint::new(believed.x_m * g, believed.z_m * g)
+    }
+
+    /// The believed position that puts the sensor at `sensor`.
+    fn belief_from_sensor(&self, sensor: SurfacePoint) -> SurfacePoint {
+        let g = 1.0 + self.params.tilt_deflection;
+        SurfacePoint::new(sensor.x_m / g, sensor.z_m / g)
+    }
+}
+
+/// Peak-to-peak of a waveform over one cycle.
+fn peak_to_peak(w: &Waveform) -> f64 {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for k in 0..128 {
+        let v = waveform_value(w, k as f64 * std::f64::consts::TAU / 128.0);
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if hi > lo { hi - lo } else { 1.0 }
+}
+
+fn check_params(p: &BeatSlideParams, fs: f64) -> Result<(), InvalidParams> {
+    let positive = |name: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(InvalidParams(format!("{name} must be positive, got {v}")))
+        }
+    };
+    for (name, v) in [
+        ("min_period_s", p.min_period_s),
+        ("max_period_s", p.max_period_s),
+        ("detection_threshold", p.detection_threshold),
+        ("coherent_s", p.coherent_s),
+        ("mark_window_s", p.mark_window_s),
+        ("mark_extend_s", p.mark_extend_s),
+        ("mark_max_window_s", p.mark_max_window_s),
+        ("search_window_s", p.search_window_s),
+        ("fix_snr", p.fix_snr),
+        ("target_snr", p.target_snr),
+        ("max_speed_m_s", p.max_speed_m_s),
+        ("max_travel_per_fix_m", p.max_travel_per_fix_m),
+        ("prediction_sd_m", p.prediction_sd_m),
+        ("max_blind_m", p.max_blind_m),
+        ("gate_sigma", p.gate_sigma),
+        ("gate_min_m", p.gate_min_m),
+        ("curvature_prior_per_m", p.curvature_prior_per_m),
+        ("curvature_walk", p.curvature_walk),
+        ("fix_floor_m", p.fix_floor_m),
+        ("return_speed_m_s", p.return_speed_m_s),
+    ] {
+        positive(name, v)?;
+    }
+    // A negative deflection of a whole unit would map every position onto the origin.
+    if !(0.0..0.5).contains(&p.tilt_deflection) {
+        return Err(InvalidParams(format!(
+            "tilt_deflection must be in [0, 0.5), got {}",
+            p.tilt_deflection
+        )));
+    }
+    if p.min_period_s >= p.max_period_s {
+        return Err(InvalidParams(format!(
+            "min_period_s {} must be below max_period_s {}",
+            p.min_period_s, p.max_period_s
+        )));
+    }
+    if 2.0 / p.min_period_s * 3.0 >= fs {
+        return Err(InvalidParams(format!(
+            "the third harmonic of the fastest pulse ({:.1} Hz) needs a frame rate above {:.1} Hz, got {fs} Hz",
+            3.0 / p.min_period_s,
+            6.0 / p.min_period_s
+        )));
+    }
+    if p.mark_max_window_s < p.mark_window_s {
+        return Err(InvalidParams(
+            "mark_max_window_s must be at least mark_window_s".into(),
+        ));
+    }
+    if p.mark_window_s < MIN_CYCLES * p.min_period_s
+        || p.search_window_s < MIN_CYCLES * p.min_period_s
+    {
+        return Err(InvalidParams(format!(
+            "windows at rest must hold {MIN_CYCLES} cycles of the fastest pulse ({:.2} s)",
+            MIN_CYCLES * p.min_period_s
+        )));
+    }
+    if p.mark_max_window_s > 120.0 || p.search_window_s > 120.0 {
+        return Err(InvalidParams("windows at rest are limited to 120 s".into()));
+    }
+    if !(1..=64).contains(&p.max_beats_per_fix) {
+        return Err(InvalidParams(format!(
+            "max_beats_per_fix must be 1 to 64, got {}",
+            p.max_beats_per_fix
+        )));
+    }
+    if p.sliding_misses == 0 {
+        return Err(InvalidParams("sliding_misses must be at least 1".into()));
+    }
+    Ok(())
+}
+
+impl Tracker for BeatSlide {
+    fn name(&self) -> &'static str {
+        Self::NAME
+    }
+
+    fn phase(&self) -> TrackerPhase {
+        if let Some(reason) = self.pending_end {
+            return TrackerPhase::Finished(reason);
+        }
+        match self.state {
+            State::Seeding => TrackerPhase::Seeding {
+                seeds: self.seeds.len(),
+            },
+            State::Marking { .. } => TrackerPhase::Marking,
+            State::Sliding { .. }
+            | State::Stopping { .. }
+            | State::Searching { .. }
+            | State::Returning { .. } => TrackerPhase::Tracking,
+            State::Finished(reason) => TrackerPhase::Finished(reason),
+        }
+    }
+
+    fn mark(&mut self) -> Result<(), TrackerError> {
+        match self.phase() {
+            TrackerPhase::Seeding { .. } => {
+                self.state = State::Marking {
+                    since_s: None,
+                    window_s: self.params.mark_window_s,
+                };
+                Ok(())
+            }
+            phase => Err(TrackerError::WrongPhase {
+                verb: "mark",
+                phase: phase.as_str(),
+            }),
+        }
+    }
+
+    fn start(&mut self, limit: TrackLimit) -> Result<(), TrackerError> {
+        let phase = self.phase();
+        if !matches!(phase, TrackerPhase::Seeding { .. }) {
+            return Err(TrackerError::WrongPhase {
+                verb: "start",
+                phase: phase.as_str(),
+            });
+        }
+        let n = self.seeds.len();
+        if n < 2 {
+            return Err(TrackerError::NotSeeded { have: n });
+        }
+        if let Some(length_m) = limit.length_m
+            && !(length_m.is_finite() && length_m > 0.0)
+        {
+            return Err(TrackerError::BadLimit(format!(
+                "length_m must be positive, got {length_m}"
+            )));
+        }
+        // How far apart the surgeon placed the sensor: the located points can be closer
+        // (the first mark's lag is unknown, as its approach was not seen), and their
+        // uncertainty is in the filter's observations.
+        let spacing_m = self.seed_sensors[n - 2].distance_to(&self.seed_sensors[n - 1]);
+        let settings = PathFilterSettings {
+            offset_prior_m: 0.002,
+            slope_prior: 0.3,
+            curvature_prior_per_m: self.params.curvature_prior_per_m,
+            curvature_walk: self.params.curvature_walk,
+            lag_prior_m: self.params.lag_prior_m,
+            lag_prior_sd_m: self.params.lag_prior_sd_m,
+            lag_walk: self.params.lag_walk,
+            gate_sigma: self.params.gate_sigma,
+            gate_min_m: self.params.gate_min_m,
+        };
+        let too_close = TrackerError::SeedsTooClose {
+            distance_m: spacing_m,
+            min_m: self.geometry.pitch_m,
+        };
+        if spacing_m < self.geometry.pitch_m {
+            return Err(too_close);
+        }
+        // The surgeon moved the sensor along the artery between the placements: that is the
+        // direction to follow (a located point may lie at the array's edge).
+        let (first, last) = (self.seed_sensors[0], self.seed_sensors[n - 1]);
+        let heading = if first.distance_to(&last) >= self.geometry.pitch_m {
+            (last.z_m - first.z_m).atan2(last.x_m - first.x_m)
+        } else {
+            f64::NAN
+        };
+        let filter = PathFilter::from_observations(&self.seeds, heading, settings)
+            .map_err(|_| too_close.clone())?;
+        self.filter = Some(filter);
+        self.limit = limit;
+        self.path_length_m = self
+            .seed_points
+            .windows(2)
+            .map(|w| w[0].distance_to(&w[1]))
+            .sum();
+        self.last_fix = self.seed_points.last().copied();
+        self.progress_mark_m = self.path_length_m;
+        if self.length_reached() {
+            self.pending_end = Some(EndReason::LengthReached);
+            return Ok(());
+        }
+        let from = self.seed_points[n - 1];
+        match self.plan(from) {
+            Some((target, speed_m_s)) => {
+                self.state = State::Sliding {
+                    from_s: None,
+                    len_s: self.window_len_s(),
+                    misses: 0,
+                    target,
+                    speed_m_s,
+                };
+                Ok(())
+            }
+            None => Err(too_close),
+        }
+    }
+
+    fn stop(&mut self) {
+        if !matches!(self.phase(), TrackerPhase::Finished(_)) {
+            self.pending_end = Some(EndReason::Stopped);
+        }
+    }
+
+    fn target_unreachable(&mut self) {
+        if matches!(self.phase(), TrackerPhase::Tracking) {
+            self.pending_end = Some(EndReason::WorkspaceEdge);
+        }
+    }
+
+    fn step(&mut self, input: &TrackerInput<'_>) -> TrackerOutput {
+        // From here on every position is where the sensor truly is (as far as the tilt
+        // model knows); the moves are turned back into the robot's belief in `motion`.
+        let compensated = TrackerInput {
+            frame: input.frame,
+            sensor: self.sensor_from_belief(input.sensor),
+            settled: input.settled,
+        };
+        let input = &compensated;
+        let t_s = input.frame.t_s;
+        if let Some(reason) = self.pending_end.take() {
+            self.finish(reason, t_s);
+        }
+        if input.frame.is_finite() && input.sensor.is_finite() {
+            let lag = self
+                .filter
+                .as_ref()
+                .map_or(self.params.lag_prior_m, PathFilter::lag_m);
+            let lag_dir = self.drag.update(input.sensor, lag);
+            if self.history.newest_t_s().is_none_or(|last| t_s > last) {
+                self.history.push(*input.frame, input.sensor, lag_dir);
+            } else {
+                self.rejected_frames += 1;
+            }
+        } else {
+            self.rejected_frames += 1;
+        }
+        match self.state {
+            State::Seeding | State::Finished(_) => {}
+            State::Marking { since_s, window_s } => self.step_marking(input, since_s, window_s),
+            State::Sliding { .. } => self.step_sliding(input),
+            State::Stopping { frames, attempt } => self.step_stopping(input, frames, attempt),
+            State::Searching { since_s, attempt } => self.step_searching(input, since_s, attempt),
+            State::Returning { target, frames } => self.step_returning(input, target, frames),
+        }
+        TrackerOutput {
+            motion: self.motion(),
+            event: self.events.pop(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tracker(tilt: f64) -> Result<BeatSlide, InvalidParams> {
+        let params = BeatSlideParams {
+            tilt_deflection: tilt,
+            ..BeatSlideParams::default()
+        };
+        BeatSlide::new(params, ArrayGeometry::default())
+    }
+
+    #[test]
+    fn tilt_deflection_pushes_the_sensor_outward_from_below_the_pivot() {
+        let t = tracker(0.027).unwrap();
+        // 100 mm from the point below the pivot: 2.7 mm further out, along the radius.
+        let s = t.sensor_from_belief(SurfacePoint::new(0.06, -0.08));
+        assert!((s.x_m - 0.06 * 1.027).abs() < 1e-15, "{s:?}");
+        assert!((s.z_m + 0.08 * 1.027).abs() < 1e-15, "{s:?}");
+        // The moves are mapped back: commanding the belief puts the sensor on the target.
+        let target = SurfacePoint::new(-0.11, 0.02);
+        let back = t.sensor_from_belief(t.belief_from_sensor(target));
+        assert!((back.x_m - target.x_m).abs() < 1e-15 && (back.z_m - target.z_m).abs() < 1e-15);
+        // Below the pivot nothing moves; with no deflection nothing moves anywhere.
+        let origin = t.sensor_from_belief(SurfacePoint::new(0.0, 0.0));
+        assert_eq!((origin.x_m, origin.z_m), (0.0, 0.0));
+        let rigid = tracker(0.0).unwrap();
+        let p = SurfacePoint::new(0.05, 0.01);
+        assert_eq!(rigid.sensor_from_belief(p), p);
+    }
+
+    #[test]
+    fn bad_tilt_deflection_is_refused() {
+        for bad in [-0.01, 0.5, f64::NAN, f64::INFINITY] {
+            let e = tracker(bad).err().map(|e| e.0).unwrap_or_default();
+            assert!(e.contains("tilt_deflection"), "{bad}: {e}");
+        }
+    }
+}

@@ -1,0 +1,562 @@
+//! `pulsetrack bench [--scenes GLOB] [--trackers LIST] [--trials N] [--seed S] [--json]
+//! [--plot DIR] [--config FILE]`: a Monte Carlo of whole lockstep trials over scenes and
+//! trackers, on every core, reported as speed against error.
+//!
+//! Every (scene, tracker, trial) is an independent job whose seed is `S + trial`: the same
+//! seeds for every scene and tracker (paired comparisons), and results that do not depend
+//! on which thread ran what. Jobs run on rayon's pool; their results are gathered in job
+//! order. Progress goes to stderr; with `--json` stdout is one document (docs/BENCHMARKS.md
+//! describes its fields), otherwise a table. `--plot DIR` draws, per scene, time against
+//! error for every tracker and speed setting (the speed-against-error front).
+//!
+//! A tracker is named as the config and `pulsetrack sim` name it, optionally with a speed
+//! setting in mm/s after `@`: `beatslide@20` runs `beatslide` with its speed set to
+//! 20 mm/s (`TrackerParams::set_speed`).
+
+use crate::cli::stdout::outln;
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use config::Config;
+use rayon::prelude::*;
+use serde::Serialize;
+use sim::scene::Scene;
+use sim::trial::{LateralError, TrialResult};
+
+use crate::plot::{Chart, Mark, Series, write_chart};
+
+/// Path length the beat count is normalized to (the seed's 26 cm tracks), m.
+const REFERENCE_LENGTH_M: f64 = 0.26;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Scenes: comma-separated glob patterns over the shipped scene names (`seed-arc-*`) or
+    /// over files (`config/scenes/*.ron`; a pattern with a `/` matches files in that
+    /// directory).
+    #[arg(long, default_value = "seed-arc-*,seed-s-curve")]
+    pub scenes: String,
+    /// Trackers: comma-separated names, each optionally with a speed setting in mm/s
+    /// (`seed2002,beatslide@5,beatslide@10`).
+    #[arg(long, default_value = "seed2002,beatslide")]
+    pub trackers: String,
+    /// Trials per scene and tracker; trial i uses seed S + i.
+    #[arg(long, default_value_t = 7)]
+    pub trials: u32,
+    /// Seed of the first trial.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Print one JSON document on stdout instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Write the speed-against-error plots (PNG and SVG) into this directory.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// The daemon configuration giving the rig and the trackers' constants; default: the
+    /// shipped simulator configuration.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+}
+
+/// A tracker and its speed setting.
+#[derive(Debug, Clone, PartialEq)]
+struct TrackerSpec {
+    /// As written on the command line (`beatslide@10`).
+    label: String,
+    name: String,
+    speed_m_s: Option<f64>,
+}
+
+/// One row of the report: a scene and a tracker over all trials.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Row {
+    pub scene: String,
+    /// The tracker as given (`beatslide@10`).
+    pub tracker: String,
+    pub trials: usize,
+    /// Fraction of trials that followed the requested length.
+    pub completion_rate: f64,
+    /// Lateral error of every autonomous point of every trial, pooled, m.
+    pub error_mean_m: f64,
+    pub error_sd_m: f64,
+    pub error_max_m: f64,
+    /// Heartbeats (pulse cycles) per trial, from the start of autonomous tracking.
+    pub beats_mean: f64,
+    /// Simulated seconds of autonomous tracking per trial.
+    pub duration_s_mean: f64,
+    pub backtracks_mean: f64,
+    // Beyond the required fields.
+    /// The tracker's name and speed setting, m/s (its configured value when not given).
+    pub tracker_name: String,
+    pub speed_m_s: Option<f64>,
+    /// Beats per 26 cm of tracked artery, mean over completed trials (the seed's track
+    /// length; the scene's requested length is the divisor).
+    pub beats_per_26cm_mean: Option<f64>,
+    /// Autonomous points over all trials.
+    pub points: usize,
+    /// The median over trials of each trial's own lateral error SD, m.
+    pub error_sd_trial_median_m: f64,
+    /// How the trials ended, in trial order.
+    pub end_reasons: Vec<String>,
+    /// Wall-clock seconds per trial (the only machine-dependent field).
+    pub wall_s_mean: f64,
+}
+
+/// The whole report.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Report {
+    /// Seed of the first trial (trial i used seed + i) and trials per row.
+    pub seed: u64,
+    pub trials: u32,
+    pub rows: Vec<Row>,
+}
+
+pub fn run(args: &Args) -> ExitCode {
+    match run_inner(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("pulsetrack bench: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn load_config(path: Option<&Path>) -> Result<Config, String> {
+    match path {
+        Some(p) => config::load_file::<Config>(p)
+            .map(|l| l.value)
+            .map_err(|e| e.to_string()),
+        None => {
+            let (name, text) = config::shipped::SIM_CONFIG;
+            config::load_str::<Config>(&format!("<shipped {name}>"), text)
+                .map_err(|e| e.to_string())
+        }
+    }
+}
+
+fn run_inner(args: &Args) -> Result<(), String> {
+    if args.trials == 0 {
+        return Err("--trials must be at least 1".into());
+    }
+    let config = load_config(args.config.as_deref())?;
+    let scenes = select_scenes(&args.scenes)?;
+    let trackers = parse_trackers(&args.trackers)?;
+    let report = bench(&config, &scenes, &trackers, args.trials, args.seed, true)?;
+    if let Some(dir) = &args.plot {
+        for f in plot_fronts(&report, dir).map_err(|e| e.to_string())? {
+            eprintln!("wrote {}", f.display());
+        }
+    }
+    if args.json {
+        let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        outln!("{text}");
+    } else {
+        print_table(&report);
+    }
+    Ok(())
+}
+
+/// Run every trial of every scene and tracker (in parallel) and summarize.
+fn bench(
+    config: &Config,
+    scenes: &[Scene],
+    trackers: &[TrackerSpec],
+    trials: u32,
+    seed: u64,
+    progress: bool,
+) -> Result<Report, String> {
+    // One configuration per tracker spec, checked before any trial runs.
+    let mut configs = Vec::with_capacity(trackers.len());
+    for t in trackers {
+        let mut c = config.clone();
+        if let Some(v) = t.speed_m_s {
+            c.tracker
+                .params
+                .set_speed(&t.name, v)
+                .map_err(|e| e.to_string())?;
+        }
+        control::tracker::build(&t.name, &c.tracker.params, &c.sensor)
+            .map_err(|e| format!("tracker `{}`: {e}", t.label))?;
+        configs.push(c);
+    }
+    let jobs: Vec<(usize, usize, u32)> = (0..scenes.len())
+        .flat_map(|s| (0..trackers.len()).flat_map(move |t| (0..trials).map(move |i| (s, t, i))))
+        .collect();
+    let done = AtomicUsize::new(0);
+    let total = jobs.len();
+    let results: Vec<Result<TrialResult, String>> = jobs
+        .par_iter()
+        .map(|&(s, t, i)| {
+            let trial_seed = seed.wrapping_add(u64::from(i));
+            let result =
+                sim::runner::run_trial(&scenes[s], &configs[t], &trackers[t].name, trial_seed)
+                    .map_err(|e| format!("{} with {}: {e}", scenes[s].name, trackers[t].label));
+            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if progress {
+                let end = result
+                    .as_ref()
+                    .map_or("error", |r| r.end_reason.as_str())
+                    .to_string();
+                eprintln!(
+                    "bench {n}/{total}: {} {} seed {trial_seed}: {end}",
+                    scenes[s].name, trackers[t].label
+                );
+            }
+            result
+        })
+        .collect();
+    let mut rows = Vec::with_capacity(scenes.len() * trackers.len());
+    let mut it = results.into_iter();
+    for scene in scenes {
+        for (t, spec) in trackers.iter().enumerate() {
+            let mut trial_results = Vec::with_capacity(trials as usize);
+            for _ in 0..trials {
+                let r = it.next().ok_or("missing trial result")??;
+                trial_results.push(r);
+            }
+            let speed = spec
+                .speed_m_s
+                .or_else(|| configs[t].tracker.params.speed(&spec.name));
+            rows.push(summarize(scene, spec, speed, &trial_results));
+        }
+    }
+    Ok(Report { seed, trials, rows })
+}
+
+fn summarize(scene: &Scene, spec: &TrackerSpec, speed: Option<f64>, trials: &[TrialResult]) -> Row {
+    let n = trials.len().max(1) as f64;
+    let errors: Vec<f64> = trials
+        .iter()
+        .flat_map(|t| {
+            t.located
+                .iter()
+                .filter(|p| !p.seed)
+                .map(|p| p.lateral_error_m)
+        })
+        .collect();
+    let pooled = LateralError::of(&errors);
+    let completed: Vec<&TrialResult> = trials.iter().filter(|t| t.completed).collect();
+    let beats_per_26cm_mean = (!completed.is_empty()).then(|| {
+        completed
+            .iter()
+            .map(|t| t.beats as f64 * REFERENCE_LENGTH_M / scene.track.length_m)
+            .sum::<f64>()
+            / completed.len() as f64
+    });
+    let mut per_trial_sd: Vec<f64> = trials.iter().map(|t| t.lateral_error_m.sd).collect();
+    per_trial_sd.sort_by(f64::total_cmp);
+    let median_sd = per_trial_sd
+        .get(per_trial_sd.len() / 2)
+        .copied()
+        .unwrap_or(0.0);
+    let mean = |f: &dyn Fn(&TrialResult) -> f64| trials.iter().map(f).sum::<f64>() / n;
+    Row {
+        scene: scene.name.clone(),
+        tracker: spec.label.clone(),
+        trials: trials.len(),
+        completion_rate: completed.len() as f64 / n,
+        error_mean_m: pooled.mean,
+        error_sd_m: pooled.sd,
+        error_max_m: pooled.max,
+        beats_mean: mean(&|t| t.beats as f64),
+        duration_s_mean: mean(&|t| t.duration_s),
+        backtracks_mean: mean(&|t| f64::from(t.backtracks)),
+        tracker_name: spec.name.clone(),
+        speed_m_s: speed,
+        beats_per_26cm_mean,
+        points: pooled.points,
+        error_sd_trial_median_m: median_sd,
+        end_reasons: trials.iter().map(|t| t.end_reason.clone()).collect(),
+        wall_s_mean: mean(&|t| t.wall_s),
+    }
+}
+
+/// `NAME` or `NAME@SPEED_MM_S`, comma-separated.
+fn parse_trackers(list: &str) -> Result<Vec<TrackerSpec>, String> {
+    let mut out = Vec::new();
+    for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let (name, speed) = match item.split_once('@') {
+            Some((name, mm_s)) => {
+                let v: f64 = mm_s.trim().parse().map_err(|_| {
+                    format!("--trackers: `{item}`: the speed after `@` must be a number of mm/s")
+                })?;
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(format!("--trackers: `{item}`: the speed must be positive"));
+                }
+                (name.trim(), Some(v * 1e-3))
+            }
+            None => (item, None),
+        };
+        if !control::tracker::TRACKER_NAMES.contains(&name) {
+            return Err(format!(
+                "--trackers: unknown tracker `{name}`; known trackers: {}",
+                control::tracker::TRACKER_NAMES.join(", ")
+            ));
+        }
+        let spec = TrackerSpec {
+            label: item.to_string(),
+            name: name.to_string(),
+            speed_m_s: speed,
+        };
+        if !out.contains(&spec) {
+            out.push(spec);
+        }
+    }
+    if out.is_empty() {
+        return Err("--trackers names no tracker".into());
+    }
+    Ok(out)
+}
+
+/// Scenes matching comma-separated glob patterns, in the order of the patterns (each
+/// pattern's matches sorted by name); a scene matched twice is run once.
+fn select_scenes(patterns: &str) -> Result<Vec<Scene>, String> {
+    let mut names: Vec<String> = Vec::new();
+    for pattern in patterns.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let mut matched: Vec<String> = if pattern.contains('/') {
+            let path = Path::new(pattern);
+            let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+            let dir = dir.unwrap_or(Path::new("."));
+            let file_pattern = path
+                .file_name()
+                .and_then(|f| f.to_str())
+                .ok_or_else(|| format!("--scenes: `{pattern}` names no file"))?;
+            let entries = std::fs::read_dir(dir)
+                .map_err(|e| format!("--scenes: cannot read {}: {e}", dir.display()))?;
+            let mut files = Vec::new();
+            for entry in entries {
+                let entry = entry.map_err(|e| format!("--scenes: {}: {e}", dir.display()))?;
+                if let Some(name) = entry.file_name().to_str()
+                    && glob_match(file_pattern, name)
+                    && entry.path().is_file()
+                {
+                    files.push(entry.path().display().to_string());
+                }
+            }
+            files
+        } else {
+            sim::scene::shipped_names()
+                .iter()
+                .filter(|n| {
+                    glob_match(pattern, n) || glob_match(pattern, n.trim_end_matches(".ron"))
+                })
+                .map(|n| n.to_string())
+                .collect()
+        };
+        if matched.is_empty() {
+            return Err(format!(
+                "--scenes: `{pattern}` matches no scene (shipped: {})",
+                sim::scene::shipped_names().join(", ")
+            ));
+        }
+        matched.sort();
+        for m in matched {
+            if !names.contains(&m) {
+                names.push(m);
+            }
+        }
+    }
+    names
+        .iter()
+        .map(|n| sim::scene::load(n, None).map_err(|e| e.to_string()))
+        .collect()
+}
+
+/// Shell-style glob: `*` any run of characters, `?` any one, everything else literal.
+fn glob_match(pattern: &str, text: &str) -> bool {
+    let (p, t): (Vec<char>, Vec<char>) = (pattern.chars().collect(), text.chars().collect());
+    let (mut pi, mut ti) = (0, 0);
+    let mut star: Option<(usize, usize)> = None;
+    while ti < t.len() {
+        if pi < p.len() && (p[pi] == '?' || p[pi] == t[ti]) {
+            pi += 1;
+            ti += 1;
+        } else if pi < p.len() && p[pi] == '*' {
+            star = Some((pi, ti));
+            pi += 1;
+        } else if let Some((sp, st)) = star {
+            pi = sp + 1;
+            ti = st + 1;
+            star = Some((sp, st + 1));
+        } else {
+            return false;
+        }
+    }
+    p[pi..].iter().all(|&c| c == '*')
+}
+
+fn print_table(report: &Report) {
+    outln!(
+        "{} trials per row, seeds {} to {}",
+        report.trials,
+        report.seed,
+        report.seed + u64::from(report.trials) - 1
+    );
+    outln!(
+        "{:<20} {:<16} {:>6} {:>8} {:>8} {:>8} {:>7} {:>7} {:>8} {:>6}",
+        "scene",
+        "tracker",
+        "done",
+        "mean mm",
+        "sd mm",
+        "max mm",
+        "beats",
+        "b/26cm",
+        "track s",
+        "back"
+    );
+    for r in &report.rows {
+        outln!(
+            "{:<20} {:<16} {:>5.0}% {:>8.2} {:>8.2} {:>8.2} {:>7.1} {:>7} {:>8.1} {:>6.2}",
+            r.scene,
+            r.tracker,
+            100.0 * r.completion_rate,
+            r.error_mean_m * 1e3,
+            r.error_sd_m * 1e3,
+            r.error_max_m * 1e3,
+            r.beats_mean,
+            r.beats_per_26cm_mean
+                .map_or("-".to_string(), |b| format!("{b:.1}")),
+            r.duration_s_mean,
+            r.backtracks_mean
+        );
+    }
+}
+
+/// Per scene: mean track time against lateral error SD, one series per tracker through its
+/// speed settings (fastest last).
+fn plot_fronts(report: &Report, dir: &Path) -> Result<Vec<PathBuf>, crate::plot::PlotError> {
+    let mut files = Vec::new();
+    let mut scenes: Vec<&str> = Vec::new();
+    for r in &report.rows {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+    }
+    for scene in scenes {
+        let mut chart = Chart::new(
+            format!(
+                "{scene}: speed against error ({} trials per point)",
+                report.trials
+            ),
+            "mean track time (s)",
+            "lateral error SD (mm)",
+        );
+        let mut names: Vec<&str> = Vec::new();
+        for r in report.rows.iter().filter(|r| r.scene == scene) {
+            if !names.contains(&r.tracker_name.as_str()) {
+                names.push(&r.tracker_name);
+            }
+        }
+        for name in names {
+            let mut points: Vec<(f64, f64, f64)> = report
+                .rows
+                .iter()
+                .filter(|r| r.scene == scene && r.tracker_name == name)
+                .map(|r| {
+                    (
+                        r.speed_m_s.unwrap_or(0.0),
+                        r.duration_s_mean,
+                        r.error_sd_m * 1e3,
+                    )
+                })
+                .collect();
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            chart = chart.with(Series::new(
+                name,
+                points.iter().map(|&(_, t, e)| (t, e)).collect(),
+                Mark::LinePoints,
+            ));
+        }
+        files.extend(write_chart(&chart, dir, &format!("front_{scene}"))?);
+    }
+    Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn globs() {
+        assert!(glob_match("seed-*", "seed-arc-80.ron"));
+        assert!(glob_match("seed-arc-?0", "seed-arc-80"));
+        assert!(!glob_match("seed-arc-?0", "seed-arc-145"));
+        assert!(glob_match("*", ""));
+        assert!(glob_match("a*b*c", "aXXbYc"));
+        assert!(!glob_match("a*b", "aXXbY"));
+    }
+
+    #[test]
+    fn tracker_lists() {
+        let t = parse_trackers("seed2002, beatslide@12.5,beatslide@12.5").expect("valid");
+        assert_eq!(t.len(), 2);
+        assert_eq!(t[1].name, "beatslide");
+        assert_eq!(t[1].speed_m_s, Some(0.0125));
+        for bad in ["", "nope", "beatslide@", "beatslide@-1", "beatslide@x"] {
+            assert!(parse_trackers(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn scene_selection() {
+        let s = select_scenes("seed-arc-2*,seed-arc-*").expect("shipped");
+        let names: Vec<&str> = s.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["seed-arc-220", "seed-arc-145", "seed-arc-80"]);
+        assert!(select_scenes("nothing-*").is_err());
+        assert!(select_scenes("/nonexistent-dir/*.ron").is_err());
+    }
+
+    fn small_config() -> Config {
+        load_config(None).expect("shipped config")
+    }
+
+    /// The JSON has the documented fields, and the same seed gives the same document apart
+    /// from wall times, whatever the thread scheduling.
+    #[test]
+    fn json_schema_and_determinism() {
+        let config = small_config();
+        let scenes = select_scenes("seed-arc-220").expect("shipped");
+        let trackers = parse_trackers("seed2002,beatslide@15").expect("valid");
+        let strip = |mut r: Report| {
+            for row in &mut r.rows {
+                row.wall_s_mean = 0.0;
+            }
+            serde_json::to_value(&r).expect("serializes")
+        };
+        let a = strip(bench(&config, &scenes, &trackers, 2, 5, false).expect("runs"));
+        // A single-threaded pool schedules the jobs differently.
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("pool");
+        let b =
+            pool.install(|| strip(bench(&config, &scenes, &trackers, 2, 5, false).expect("runs")));
+        assert_eq!(a, b);
+        let rows = a["rows"].as_array().expect("rows");
+        assert_eq!(rows.len(), 2);
+        for row in rows {
+            for key in [
+                "scene",
+                "tracker",
+                "trials",
+                "completion_rate",
+                "error_mean_m",
+                "error_sd_m",
+                "error_max_m",
+                "beats_mean",
+                "duration_s_mean",
+                "backtracks_mean",
+            ] {
+                assert!(row.get(key).is_some(), "missing {key} in {row}");
+            }
+            assert_eq!(row["trials"], 2);
+            assert_eq!(row["scene"], "seed-arc-220");
+        }
+        assert_eq!(rows[1]["tracker"], "beatslide@15");
+        assert_eq!(rows[1]["speed_m_s"], 0.015);
+        let other = strip(bench(&config, &scenes, &trackers, 2, 6, false).expect("runs"));
+        assert_ne!(a, other, "another seed gives other trials");
+    }
+}
