@@ -4,7 +4,7 @@
 //! peak top von Mises at t = 0.425 s for the convergence table.
 //!
 //! cargo bench -p pulsetrack-sim --bench fem_seed001 -- [--refine 0,1,2,3] [--reps 5]
-//!     [--size-scale S] [--export DIR]   (DIR/k.mtx and DIR/f.txt for scripts/fem_superlu.py,
+//!     [--size-scale S] [--ordering node|dof] [--export DIR]   (DIR/k.mtx and DIR/f.txt for scripts/fem_superlu.py,
 //!     finest level)
 
 use std::io::Write;
@@ -13,6 +13,7 @@ use std::time::Instant;
 use pulsetrack_sim::fem::linear::LinearModel;
 use pulsetrack_sim::fem::recovery::von_mises_of;
 use pulsetrack_sim::fem::run::{build_mesh, supports};
+use pulsetrack_sim::fem::sparse::Ordering;
 use pulsetrack_sim::fem::study::shipped;
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -35,6 +36,14 @@ fn main() {
         .collect();
     let reps: usize = get("--reps").and_then(|s| s.parse().ok()).unwrap_or(5);
     let export = get("--export");
+    let ordering = match get("--ordering").as_deref() {
+        None | Some("node") => Ordering::NodeAmd,
+        Some("dof") => Ordering::DofAmd,
+        Some(other) => {
+            eprintln!("--ordering {other}: expected node or dof");
+            std::process::exit(2);
+        }
+    };
     let mut model = shipped("seed-001-healthy-artery.ron").expect("shipped model");
     // Scale the element sizes (0.84 at refine 3 gives about 340k DOFs).
     if let Some(s) = get("--size-scale").and_then(|s| s.parse::<f64>().ok()) {
@@ -43,7 +52,7 @@ fn main() {
     }
     let p_sys = model.pressure_at(0.425);
     println!(
-        "{:>6} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10}",
+        "{:>6} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10} {:>8}",
         "refine",
         "dofs",
         "mesh s",
@@ -54,27 +63,34 @@ fn main() {
         "solve",
         "recover",
         "total s",
-        "peak kPa"
+        "peak kPa",
+        "L nnz M"
     );
     for &level in &levels {
         let mut rows: Vec<[f64; 8]> = Vec::new();
         let mut peak = f64::NAN;
         let mut dofs = 0;
+        let mut l_nnz = 0;
         for _ in 0..reps {
             let t0 = Instant::now();
             let mesh = build_mesh(&model, level).expect("mesh");
             let t_mesh = t0.elapsed().as_secs_f64();
-            let lm = LinearModel::new(&mesh, &model.materials(), model.analysis).expect("assemble");
+            let lm =
+                LinearModel::with_ordering(&mesh, &model.materials(), model.analysis, ordering)
+                    .expect("assemble");
+            l_nnz = lm.symbolic.len_val();
             let (fixed, pres) = supports(&mesh, &model);
             let t1 = Instant::now();
             let c = lm.factor(&fixed).expect("factor");
             let t_num = t1.elapsed().as_secs_f64();
             let t2 = Instant::now();
             let zeros = vec![0.0; mesh.dofs()];
-            let u_platen = c.solve(&zeros, &pres).expect("solve");
-            let u_unit = c
-                .solve(&mesh.lumen_pressure_forces(1.0), &zeros)
+            let unit = mesh.lumen_pressure_forces(1.0);
+            let mut both = c
+                .solve_many(&[(&zeros, &pres), (&unit, &zeros)])
                 .expect("solve");
+            let u_unit = both.pop().expect("two cases");
+            let u_platen = both.pop().expect("two cases");
             let t_solve = t2.elapsed().as_secs_f64();
             let t3 = Instant::now();
             let u: Vec<f64> = u_platen
@@ -107,7 +123,7 @@ fn main() {
         }
         let col = |i: usize| median(rows.iter().map(|r| r[i]).collect());
         println!(
-            "{:>6} {:>9} {:>8.3} {:>8.3} {:>9.3} {:>9.3} {:>9.3} {:>8.3} {:>8.3} {:>9.3} {:>10.4}",
+            "{:>6} {:>9} {:>8.3} {:>8.3} {:>9.3} {:>9.3} {:>9.3} {:>8.3} {:>8.3} {:>9.3} {:>10.4} {:>8.2}",
             level,
             dofs,
             col(0),
@@ -118,7 +134,8 @@ fn main() {
             col(5),
             col(6),
             col(7),
-            peak * 1e-3
+            peak * 1e-3,
+            l_nnz as f64 * 1e-6
         );
     }
 }

@@ -8,10 +8,10 @@ use sim::fem::model::{Kinematics, ModelFile};
 use sim::fem::run::{ModelRun, Record, run_model};
 use sim::fem::study::{
     Seed001, Seed002, StudyOptions, TABLE1_HEALTHY_PA, TABLE1_STENOTIC_PA, TABLE1_TIMES_S,
-    seed_001, seed_002,
+    seed_001, seed_001_image, seed_002,
 };
 
-use crate::plot::{Chart, Mark, Series, write_chart};
+use crate::plot::{Chart, Heatmap, HeatmapFigure, Mark, Series, write_chart, write_heatmaps};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum StudyName {
@@ -87,6 +87,8 @@ fn execute(args: &Args) -> Result<(), String> {
             emit(args, &s.runs, || print_seed_001(&s, &opts))?;
             if let Some(dir) = &args.plot {
                 plot_seed_001(dir, &s)?;
+                let image = seed_001_image(&opts, IMAGE_SAMPLES).map_err(|e| e.to_string())?;
+                plot_tactile_image(dir, &image)?;
             }
         }
         Some(StudyName::Seed002) => {
@@ -190,20 +192,32 @@ fn print_seed_002(s: &Seed002) {
     for sw in &s.sweeps {
         println!("\nsweep {} ({}):", sw.name, sw.label);
         println!(
-            "{:>10} {:>22} {:>16}",
-            "value", "swing at x=0 (kPa)", "peak (sys) kPa"
+            "{:>10} {:>22} {:>16} {:>16} {:>22}",
+            "value",
+            "swing at x=0 (kPa)",
+            "peak (dia) kPa",
+            "peak (sys) kPa",
+            "lumen height d/s (mm)"
         );
         for p in &sw.points {
-            let sys_peak = p.run.times.last().map_or(f64::NAN, |t| t.summary.peak);
+            let first = p.run.times.first();
+            let last = p.run.times.last();
+            let peak =
+                |t: Option<&sim::fem::run::TimeResult>| t.map_or(f64::NAN, |t| t.summary.peak);
+            let height =
+                |t: Option<&sim::fem::run::TimeResult>| t.map_or(f64::NAN, |t| t.lumen_height_m);
             println!(
-                "{:>10.2} {:>22.4} {:>16.3}",
+                "{:>10.2} {:>22.4} {:>16.3} {:>16.3} {:>10.3} / {:<9.3}",
                 p.value,
                 kpa(p.swing_pa),
-                kpa(sys_peak)
+                kpa(peak(first)),
+                kpa(peak(last)),
+                height(first) * 1e3,
+                height(last) * 1e3
             );
         }
     }
-    println!("\ntip shapes at 3 mm (systole): peak and von Mises over the artery");
+    println!("\ntip shapes at 3 mm (systole, linear): peak and von Mises over the artery");
     for r in &s.tips {
         if let Some(t) = r.times.first() {
             println!(
@@ -278,6 +292,42 @@ fn plot_seed_001(dir: &Path, s: &Seed001) -> Result<(), String> {
         }
     }
     write_chart(&c, dir, "seed-001-table1").map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// Time samples of the tactile image over one pulse period.
+const IMAGE_SAMPLES: usize = 35;
+
+/// Paper 001 Fig. 3: top von Mises over x (the sensor's line) and time, one panel per model.
+fn plot_tactile_image(dir: &Path, s: &Seed001) -> Result<(), String> {
+    let panels = s
+        .runs
+        .iter()
+        .map(|r| Heatmap {
+            title: r.name.clone(),
+            xs: r
+                .times
+                .first()
+                .map(|t| t.x_m.iter().map(|x| x * 1e3).collect())
+                .unwrap_or_default(),
+            ys: r.times.iter().map(|t| t.t_s).collect(),
+            values: r
+                .times
+                .iter()
+                .map(|t| t.von_mises_pa.iter().map(|v| v * 1e-3).collect())
+                .collect(),
+        })
+        .collect();
+    let fig = HeatmapFigure {
+        title: "2-D tactile image: top von Mises over x and one pulse (paper 001 Fig. 3)".into(),
+        x_label: "x from the feature (mm)".into(),
+        y_label: "t (s)".into(),
+        value_label: "von Mises (kPa)".into(),
+        panels,
+        columns: 2,
+        size_px: (1300, 900),
+    };
+    write_heatmaps(&fig, dir, "seed-001-tactile-image").map_err(|e| e.to_string())?;
     Ok(())
 }
 

@@ -1,10 +1,14 @@
 //! Charts written as PNG and SVG with a shipped font (no system font libraries).
 //!
 //! Every plot pulsetrack draws (top views of tracks, error against distance, tactile traces,
-//! FEM stress curves, speed-against-error fronts) is a [`Chart`] of line and point series.
+//! FEM stress curves, speed-against-error fronts) is a [`Chart`] of line and point series;
+//! fields over two axes (the FEM's tactile image) are heat maps ([`HeatmapFigure`]).
 
 use std::path::{Path, PathBuf};
 use std::sync::Once;
+
+mod heatmap;
+pub use heatmap::{Heatmap, HeatmapFigure, viridis, write_heatmaps};
 
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -80,12 +84,16 @@ pub enum PlotError {
     Empty(String),
 }
 
-/// Write `chart` as `dir/stem.png` and `dir/stem.svg`; returns both paths.
-pub fn write_chart(chart: &Chart, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
+fn register_font() {
     REGISTER.call_once(|| {
         // The font is compiled in; failing to parse it is a build defect caught by tests.
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
     });
+}
+
+/// Write `chart` as `dir/stem.png` and `dir/stem.svg`; returns both paths.
+pub fn write_chart(chart: &Chart, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
+    register_font();
     std::fs::create_dir_all(dir).map_err(|source| PlotError::Dir {
         dir: dir.display().to_string(),
         source,

@@ -7,13 +7,17 @@
 //! tangent. Lumen pressure keeps its reference direction (dead load, no follower term), as
 //! the issue specifies. Full 2x2 integration: fine for the papers' plane stress, but plane
 //! strain near ν = 0.5 would lock here (the linear solver's B-bar is not carried over).
+//! The rigid finger enters as a penalty on the deformed configuration
+//! ([`super::finger_penalty`]), its indentation ramped with the load.
 
 use rayon::prelude::*;
 
+use super::contact::Indenter;
 use super::element::{Q4, extrapolate_to_nodes};
+use super::finger_penalty::{FingerPenalty, PENALTY_PER_MODULUS};
 use super::material::{Analysis, Material};
 use super::mesh::Mesh;
-use super::model::ModelFile;
+use super::model::{Load, ModelFile};
 use super::recovery::top_stresses;
 use super::run::supports;
 use super::sparse::{Constrained, Pattern, SolveError, element_dofs};
@@ -226,6 +230,8 @@ pub struct FiniteModel<'m> {
 const MAX_NEWTON: usize = 30;
 const MAX_CUTS: u32 = 10;
 const TOL_R: f64 = 1e-8;
+/// Re-solves of one Newton step for nodes it would push into the finger.
+const MAX_CLOSING_PASSES: usize = 6;
 
 impl<'m> FiniteModel<'m> {
     pub fn new(
@@ -257,8 +263,9 @@ impl<'m> FiniteModel<'m> {
         ue
     }
 
-    /// Internal forces and tangent values at `u`; `None` if any element inverts.
-    fn state(&self, u: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
+    /// Internal forces and tangent values at `u` (with the finger's penalty, if any, at its
+    /// indentation); `None` if any element inverts.
+    fn state(&self, u: &[f64], finger: Finger<'_>) -> Option<(Vec<f64>, Vec<f64>)> {
         let per: Option<Vec<([f64; 8], [f64; 36])>> = (0..self.mesh.elements.len())
             .into_par_iter()
             .map(|e| {
@@ -275,7 +282,18 @@ impl<'m> FiniteModel<'m> {
             }
             ke.push(k);
         }
-        Some((fint, self.pattern.assemble(&ke)))
+        let mut values = self.pattern.assemble(&ke);
+        if let Some((f, indent_m)) = finger {
+            f.add(
+                self.mesh,
+                &self.pattern,
+                u,
+                indent_m,
+                &mut fint,
+                &mut values,
+            );
+        }
+        Some((fint, values))
     }
 
     fn residual_norm(fixed: &[bool], fext: &[f64], fint: &[f64]) -> f64 {
@@ -288,6 +306,53 @@ impl<'m> FiniteModel<'m> {
             .sqrt()
     }
 
+    /// One Newton direction. With a finger, nodes the step would push into the tip are
+    /// given the penalty branch they are entering and the step is recomputed (a few times
+    /// at most; the set only grows).
+    #[allow(clippy::too_many_arguments)]
+    fn newton_step(
+        &self,
+        x: &[f64],
+        fint: &[f64],
+        kv: &[f64],
+        fixed: &[bool],
+        fext: &[f64],
+        du_c: &[f64],
+        finger: Finger<'_>,
+    ) -> Result<Vec<f64>, SolveError> {
+        let solve = |fi: &[f64], k: &[f64]| -> Result<Vec<f64>, SolveError> {
+            let rhs: Vec<f64> = fext.iter().zip(fi).map(|(a, b)| a - b).collect();
+            Constrained::new(&self.pattern, &self.symbolic, k, fixed)?.solve(&rhs, du_c)
+        };
+        let mut du = solve(fint, kv)?;
+        let Some((f, indent_m)) = finger else {
+            return Ok(du);
+        };
+        let mut extra = vec![false; self.mesh.top.len()];
+        for _ in 0..MAX_CLOSING_PASSES {
+            let closing = f.closing(self.mesh, x, &du, indent_m);
+            if closing.iter().zip(&extra).all(|(c, e)| !c || *e) {
+                break;
+            }
+            for (e, c) in extra.iter_mut().zip(&closing) {
+                *e |= *c;
+            }
+            let mut fi = fint.to_vec();
+            let mut k = kv.to_vec();
+            f.add_closing(
+                self.mesh,
+                &self.pattern,
+                x,
+                indent_m,
+                &extra,
+                &mut fi,
+                &mut k,
+            );
+            du = solve(&fi, &k)?;
+        }
+        Ok(du)
+    }
+
     /// Newton at one load level: prescribed `target` on fixed DOFs, external `fext`.
     /// Updates `u` in place only on success.
     fn equilibrate(
@@ -296,9 +361,10 @@ impl<'m> FiniteModel<'m> {
         fixed: &[bool],
         target: &[f64],
         fext: &[f64],
+        finger: Finger<'_>,
     ) -> Result<usize, SolveError> {
         let mut x = u.clone();
-        let (mut fint, mut kv) = self.state(&x).ok_or(SolveError::NonFinite)?;
+        let (mut fint, mut kv) = self.state(&x, finger).ok_or(SolveError::NonFinite)?;
         // Force scale: applied loads and support reactions at the current iterate.
         let scale = |fint: &[f64]| -> f64 {
             let ext: f64 = fext.iter().map(|v| v * v).sum();
@@ -311,10 +377,8 @@ impl<'m> FiniteModel<'m> {
             ext.max(reac).sqrt().max(1e-30)
         };
         for it in 0..MAX_NEWTON {
-            let rhs: Vec<f64> = fext.iter().zip(&fint).map(|(a, b)| a - b).collect();
             let du_c: Vec<f64> = target.iter().zip(&x).map(|(t, xi)| t - xi).collect();
-            let c = Constrained::new(&self.pattern, &self.symbolic, &kv, fixed)?;
-            let du = c.solve(&rhs, &du_c)?;
+            let du = self.newton_step(&x, &fint, &kv, fixed, fext, &du_c, finger)?;
             let r0 = Self::residual_norm(fixed, fext, &fint);
             let constrained_jump = du_c.iter().zip(fixed).any(|(d, f)| *f && d.abs() > 0.0);
             // Backtracking: accept the first step that keeps every element valid and, once
@@ -323,7 +387,7 @@ impl<'m> FiniteModel<'m> {
             let mut accepted = None;
             for _ in 0..8 {
                 let trial: Vec<f64> = x.iter().zip(&du).map(|(a, d)| a + alpha * d).collect();
-                if let Some((fi, k)) = self.state(&trial) {
+                if let Some((fi, k)) = self.state(&trial, finger) {
                     let r1 = Self::residual_norm(fixed, fext, &fi);
                     if constrained_jump
                         || r1 < (1.0 - 1e-4 * alpha) * r0
@@ -362,13 +426,33 @@ impl<'m> FiniteModel<'m> {
 
     /// Move from load level a to b (prescribed values and forces interpolated linearly) in
     /// `steps` increments, halving a failed increment up to `MAX_CUTS` times.
-    #[allow(clippy::too_many_arguments)]
     pub fn advance(
         &self,
         u: &mut Vec<f64>,
         fixed: &[bool],
         (target_a, fext_a): (&[f64], &[f64]),
         (target_b, fext_b): (&[f64], &[f64]),
+        steps: u32,
+    ) -> Result<(), SolveError> {
+        self.advance_with_finger(
+            u,
+            fixed,
+            (target_a, fext_a),
+            (target_b, fext_b),
+            None,
+            steps,
+        )
+    }
+
+    /// As [`FiniteModel::advance`], with a finger whose indentation moves from `indent.1`
+    /// to `indent.2` along with the other loads.
+    pub fn advance_with_finger(
+        &self,
+        u: &mut Vec<f64>,
+        fixed: &[bool],
+        (target_a, fext_a): (&[f64], &[f64]),
+        (target_b, fext_b): (&[f64], &[f64]),
+        finger: Option<(&FingerPenalty, f64, f64)>,
         steps: u32,
     ) -> Result<(), SolveError> {
         let lerp = |a: &[f64], b: &[f64], s: f64| -> Vec<f64> {
@@ -381,7 +465,8 @@ impl<'m> FiniteModel<'m> {
             let next = (s + ds).min(1.0);
             let target = lerp(target_a, target_b, next);
             let fext = lerp(fext_a, fext_b, next);
-            match self.equilibrate(u, fixed, &target, &fext) {
+            let at = finger.map(|(f, a, b)| (f, a + next * (b - a)));
+            match self.equilibrate(u, fixed, &target, &fext, at) {
                 Ok(_) => {
                     s = next;
                     if cuts > 0 {
@@ -411,11 +496,51 @@ impl<'m> FiniteModel<'m> {
     }
 }
 
-/// Time and recovered top Cauchy stresses (σxx, σyy, σxy, σzz) per top node.
-pub type TopState = (f64, Vec<[f64; 4]>);
+/// The finger's penalty and indentation at one load level.
+type Finger<'a> = Option<(&'a FingerPenalty, f64)>;
 
-/// Solve a model in finite strain: ramp the platen and the first time's lumen pressure from
-/// zero in `steps` increments, then follow the pressure through the output times.
+/// One output time of a finite-strain solve.
+#[derive(Debug, Clone)]
+pub struct TopState {
+    pub t_s: f64,
+    /// Recovered top Cauchy stresses (σxx, σyy, σxy, σzz) per top node.
+    pub stresses: Vec<[f64; 4]>,
+    pub u: Vec<f64>,
+    /// The finger's deepest penetration at this time (0 without a finger), m.
+    pub penetration_m: f64,
+}
+
+/// The finger of a model's load, as a penalty scaled by the tissue's modulus.
+pub fn finger_of(model: &ModelFile) -> Option<(FingerPenalty, f64)> {
+    match model.load {
+        Load::Finger {
+            tip,
+            indent_m,
+            centre_x_m,
+        } => {
+            let ind = Indenter {
+                tip,
+                centre_x_m: centre_x_m.unwrap_or_else(|| model.x_origin_m()),
+                indent_m,
+                surface_y_m: model.block.height_m,
+            };
+            Some((
+                FingerPenalty {
+                    tip: ind.tip,
+                    centre_x_m: ind.centre_x_m,
+                    surface_y_m: ind.surface_y_m,
+                    penalty_pa: PENALTY_PER_MODULUS * model.tissue.e_pa,
+                },
+                indent_m,
+            ))
+        }
+        Load::Platen { .. } => None,
+    }
+}
+
+/// Solve a model in finite strain: ramp the platen or the finger and the first time's lumen
+/// pressure from zero in `steps` increments, then follow the pressure through the output
+/// times.
 pub fn solve_times(
     model: &ModelFile,
     mesh: &Mesh,
@@ -423,6 +548,7 @@ pub fn solve_times(
 ) -> Result<Vec<TopState>, SolveError> {
     let fm = FiniteModel::new(mesh, &model.materials(), model.analysis)?;
     let (fixed, target) = supports(mesh, model);
+    let finger = finger_of(model);
     let unit = mesh.lumen_pressure_forces(1.0);
     let zeros = vec![0.0; mesh.dofs()];
     let mut u = zeros.clone();
@@ -432,10 +558,32 @@ pub fn solve_times(
         let p = model.pressure_at(t);
         let fext: Vec<f64> = unit.iter().map(|f| f * p).collect();
         match &prev {
-            None => fm.advance(&mut u, &fixed, (&zeros, &zeros), (&target, &fext), steps)?,
-            Some(fa) => fm.advance(&mut u, &fixed, (&target, fa), (&target, &fext), 2)?,
+            None => fm.advance_with_finger(
+                &mut u,
+                &fixed,
+                (&zeros, &zeros),
+                (&target, &fext),
+                finger.as_ref().map(|(f, d)| (f, 0.0, *d)),
+                steps,
+            )?,
+            Some(fa) => fm.advance_with_finger(
+                &mut u,
+                &fixed,
+                (&target, fa),
+                (&target, &fext),
+                finger.as_ref().map(|(f, d)| (f, *d, *d)),
+                2,
+            )?,
         }
-        out.push((t, fm.top_cauchy(&u)));
+        let penetration_m = finger
+            .as_ref()
+            .map_or(0.0, |(f, d)| f.forces(mesh, &u, *d).1);
+        out.push(TopState {
+            t_s: t,
+            stresses: fm.top_cauchy(&u),
+            u: u.clone(),
+            penetration_m,
+        });
         prev = Some(fext);
     }
     Ok(out)

@@ -12,6 +12,7 @@
 
 pub mod contact;
 pub mod element;
+pub mod finger_penalty;
 pub mod finite;
 pub mod kernel;
 pub mod linear;

@@ -333,12 +333,6 @@ impl Validate for ModelFile {
                 if let Some(x) = centre_x_m {
                     v.in_range("Finger.centre_x_m", x, 0.0, self.block.width_m);
                 }
-                if matches!(self.kinematics, Kinematics::FiniteStrain { .. }) {
-                    v.problem(
-                        "Finger",
-                        "finger contact is solved in small strain only; use kinematics: Linear",
-                    );
-                }
             }
         });
         if let Some(l) = &self.lumen {

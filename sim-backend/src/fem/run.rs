@@ -38,6 +38,9 @@ pub struct TimeResult {
     /// σyy at the top nodes (negative in compression), Pa.
     pub sigma_yy_pa: Vec<f64>,
     pub summary: CurveSummary,
+    /// Deformed height of the lumen (top to bottom of its wall's inner edge), m; NaN
+    /// without a lumen. An artery collapsing under a finger shows here.
+    pub lumen_height_m: f64,
 }
 
 #[derive(Debug, Clone)]
@@ -125,7 +128,25 @@ pub fn build_mesh(model: &ModelFile, extra_refine: u32) -> Result<Mesh, FemError
     })
 }
 
-fn time_result(model: &ModelFile, mesh: &Mesh, t_s: f64, stresses: &[[f64; 4]]) -> TimeResult {
+/// Deformed vertical extent of the lumen's boundary, m (NaN without a lumen).
+pub fn lumen_height_m(mesh: &Mesh, u: &[f64]) -> f64 {
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for &n in mesh.lumen_edges.iter().flatten() {
+        let y = mesh.nodes[n as usize][1] + u[2 * n as usize + 1];
+        lo = lo.min(y);
+        hi = hi.max(y);
+    }
+    if hi >= lo { hi - lo } else { f64::NAN }
+}
+
+fn time_result(
+    model: &ModelFile,
+    mesh: &Mesh,
+    t_s: f64,
+    stresses: &[[f64; 4]],
+    u: &[f64],
+) -> TimeResult {
     let x0 = model.x_origin_m();
     let x_m: Vec<f64> = mesh
         .top
@@ -145,6 +166,7 @@ fn time_result(model: &ModelFile, mesh: &Mesh, t_s: f64, stresses: &[[f64; 4]]) 
         von_mises_pa,
         sigma_yy_pa,
         summary,
+        lumen_height_m: lumen_height_m(mesh, u),
     }
 }
 
@@ -162,7 +184,7 @@ pub fn run_model(model: &ModelFile, extra_refine: u32) -> Result<ModelRun, FemEr
             finite::solve_times(model, &mesh, steps)
                 .map_err(wrap)?
                 .into_iter()
-                .map(|(t, s)| time_result(model, &mesh, t, &s))
+                .map(|s| time_result(model, &mesh, s.t_s, &s.stresses, &s.u))
                 .collect(),
             Timings::default(),
         ),
@@ -187,12 +209,18 @@ fn solve_linear(model: &ModelFile, mesh: &Mesh) -> Result<(Vec<TimeResult>, Timi
             // Linear and the supports do not change: superpose the platen and a unit lumen
             // pressure, solved with one factorization.
             let c = lm.factor(&fixed)?;
-            let u_platen = c.solve(&zeros, &pres)?;
-            let u_unit = c.solve(&unit, &zeros)?;
+            let mut u = c.solve_many(&[(&zeros, &pres), (&unit, &zeros)])?;
+            let u_unit = u.pop().ok_or(SolveError::NonFinite)?;
+            let u_platen = u.pop().ok_or(SolveError::NonFinite)?;
             let s_platen = lm.top_stresses(&u_platen);
             let s_unit = lm.top_stresses(&u_unit);
             for &t in &model.times_s {
                 let p = model.pressure_at(t);
+                let u: Vec<f64> = u_platen
+                    .iter()
+                    .zip(&u_unit)
+                    .map(|(a, b)| a + p * b)
+                    .collect();
                 let s: Vec<[f64; 4]> = s_platen
                     .iter()
                     .zip(&s_unit)
@@ -205,7 +233,7 @@ fn solve_linear(model: &ModelFile, mesh: &Mesh) -> Result<(Vec<TimeResult>, Timi
                         ]
                     })
                     .collect();
-                out.push(time_result(model, mesh, t, &s));
+                out.push(time_result(model, mesh, t, &s, &u));
             }
         }
         Load::Finger {
@@ -224,7 +252,7 @@ fn solve_linear(model: &ModelFile, mesh: &Mesh) -> Result<(Vec<TimeResult>, Timi
                 let force: Vec<f64> = unit.iter().map(|f| f * p).collect();
                 let sol = solve_contact(&lm, &fixed, &pres, &force, &indenter)?;
                 let s = lm.top_stresses(&sol.u);
-                out.push(time_result(model, mesh, t, &s));
+                out.push(time_result(model, mesh, t, &s, &sol.u));
             }
         }
     }
