@@ -1274,6 +1274,95 @@ mod tests {
         assert_eq!(rigid.sensor_from_belief(p), p);
     }
 
+    /// A tracker seeded on an artery along x at z = 0 (points 5 mm apart, sliding +x).
+    fn seeded() -> BeatSlide {
+        let mut t = tracker(0.0).unwrap();
+        let p = t.params;
+        let settings = PathFilterSettings {
+            offset_prior_m: 0.002,
+            slope_prior: 0.3,
+            curvature_prior_per_m: p.curvature_prior_per_m,
+            curvature_walk: p.curvature_walk,
+            lag_prior_m: p.lag_prior_m,
+            lag_prior_sd_m: p.lag_prior_sd_m,
+            lag_walk: p.lag_walk,
+            gate_sigma: p.gate_sigma,
+            gate_min_m: p.gate_min_m,
+        };
+        let seeds: Vec<Observation> = [0.0, 0.005]
+            .iter()
+            .map(|&x| Observation {
+                point: SurfacePoint::new(x, 0.0),
+                sd_m: 0.0003,
+                lag_dir: [1.0, 0.0],
+            })
+            .collect();
+        t.filter = Some(PathFilter::from_observations(&seeds, 0.0, settings).unwrap());
+        t
+    }
+
+    /// A clear fix (SNR 10) with the artery `offset_m` off the array's centre, the sensor
+    /// 15 mm along the path.
+    fn fix(offset_m: f64) -> BeatFix {
+        BeatFix {
+            t_mid_s: 10.0,
+            late_s: 0.0,
+            kernel: KernelFit {
+                offset_z_m: offset_m,
+                element: 4.5 + offset_m / 0.002,
+                offset_se_m: 0.0003,
+                amplitude: 10.0,
+                amplitude_se: 1.0,
+                baseline: 0.0,
+                width_m: 0.005,
+                chi2: 6.0,
+                at_edge: false,
+            },
+            sensor: SurfacePoint::new(0.015, 0.0),
+            lag_dir: [1.0, 0.0],
+            noise_sd_n: 0.01,
+            aligned: Waveform::zeros(),
+        }
+    }
+
+    #[test]
+    fn an_untimed_fix_may_confirm_the_path_but_not_surprise_it() {
+        let base = seeded();
+        let nis = |offset_m: f64| {
+            let mut f = base.filter.unwrap();
+            let o = Observation {
+                point: fix(offset_m).point(),
+                sd_m: base.fix_sd(&fix(offset_m).kernel),
+                lag_dir: [1.0, 0.0],
+            };
+            f.update(&o).ok()
+        };
+        // An offset the gate passes but the model finds surprising (NIS between 4 and the
+        // gate's 16), and one it expects.
+        let surprising = (1..200)
+            .map(|i| i as f64 * 5e-5)
+            .find(|&d| nis(d).is_some_and(|n| n > 2.0 * SURPRISE_NIS))
+            .expect("some offset inside the gate surprises the model");
+        assert!(nis(surprising).is_some_and(|n| n < 16.0));
+        let expected = surprising / 4.0;
+        assert!(nis(expected).is_some_and(|n| n < SURPRISE_NIS));
+        // Timed, the surprising fix is taken (the path turned); untimed it is refused and
+        // the path model is left as it was.
+        let mut timed = base.clone();
+        assert!(timed.accept(&fix(surprising), false).is_ok());
+        let mut untimed = base.clone();
+        let why = untimed.accept(&fix(surprising), true);
+        assert!(
+            matches!(why, Err(Miss::UntimedSurprise { nis }) if nis > SURPRISE_NIS),
+            "{why:?}"
+        );
+        assert_eq!(untimed.filter, base.filter);
+        // An untimed fix on the predicted path is taken.
+        let mut confirming = base.clone();
+        assert!(confirming.accept(&fix(expected), true).is_ok());
+        assert_ne!(confirming.filter, base.filter);
+    }
+
     #[test]
     fn bad_tilt_deflection_is_refused() {
         for bad in [-0.01, 0.5, f64::NAN, f64::INFINITY] {
