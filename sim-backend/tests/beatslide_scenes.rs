@@ -80,10 +80,12 @@ fn seed_radial_wrist() {
     // felt at both placements (long windows at rest), then followed a few beats per fix.
     let (_, t) = run("seed-radial-wrist");
     let why = summary(&t);
-    assert_ne!(t.end_reason, "not_seeded", "{why}");
-    // Its 28 mm of track take two or three fixes of several beats each.
-    assert!(t.lateral_error_m.points >= 2, "{why}");
+    assert!(t.completed, "{why}");
+    // Its 28 mm of track take one to three fixes of several beats each (counted from the
+    // first placement: the first mark's unseen lag no longer shortens it).
+    assert!(t.lateral_error_m.points >= 1, "{why}");
     assert!(t.lateral_error_m.max < 3.0e-3, "{why}");
+    assert!(t.beats < 60, "{why}");
 }
 
 // Where it fails: the tightest radius and the weakest pulse.
@@ -190,8 +192,10 @@ fn robust_occlusion_stops_lost_at_rest_near_the_artery() {
     assert!(clear.len() >= 5, "{why}");
     let worst = clear.iter().fold(0.0f64, |m, e| m.max(e.abs()));
     assert!(worst < 2.0e-3, "worst {worst} m in the first half; {why}");
-    // ... and as it faded no point lay beyond the array's reach.
-    assert!(t.lateral_error_m.max < 0.009, "{why}");
+    // ... and as it faded no fix far off the path was accepted (a window whose timed
+    // pulse collapsed gives no fix that surprises the path model; the worst point is now
+    // 1.3 mm off, it was 6.4 mm).
+    assert!(t.lateral_error_m.max < 4.0e-3, "{why}");
     // ... and never wandered: the true sensor stays on the artery (the array's reach) and
     // ends within the blind-travel bound of the last point it located.
     let path = ArteryPath::from_spec(&s.artery.path).expect("the scene's path");

@@ -105,6 +105,8 @@ pub enum Miss {
     NoProgress,
     #[error("neither the beat clock nor the window's coherent pattern shows an artery")]
     Untimed,
+    #[error("an untimed fix surprised the path model (normalized innovation squared {nis:.1})")]
+    UntimedSurprise { nis: f64 },
     #[error("no believed sensor position in the window")]
     NoPosition,
     #[error("no path model")]
@@ -624,7 +626,7 @@ impl BeatSlide {
             return;
         }
         let timed = self.analyse(from).map_err(Miss::from).and_then(|fix| {
-            let point = self.accept(&fix)?;
+            let point = self.accept(&fix, false)?;
             Ok((fix, point))
         });
         // A beat the clock could not time (irregular beats): the pulse's spatial pattern
@@ -632,7 +634,7 @@ impl BeatSlide {
         let fix = match timed {
             Err(Miss::Weak { .. } | Miss::Timing { .. }) => {
                 self.untimed_fix(from).and_then(|fix| {
-                    let point = self.accept(&fix)?;
+                    let point = self.accept(&fix, true)?;
                     Ok((fix, point))
                 })
             }
@@ -730,7 +732,7 @@ impl BeatSlide {
 
     /// Is this fix the artery? A clear pulse, placed on the array, on the predicted path.
     /// Returns the artery point with the sensor's lag removed.
-    fn accept(&mut self, fix: &BeatFix) -> Result<SurfacePoint, Miss> {
+    fn accept(&mut self, fix: &BeatFix, untimed: bool) -> Result<SurfacePoint, Miss> {
         let k = &fix.kernel;
         // A pulse much weaker than this artery's usual is the artery leaving the array (or
         // something else): not a fix.
@@ -764,7 +766,18 @@ impl BeatSlide {
             lag_dir: fix.lag_dir,
         };
         let filter = self.filter.as_mut().ok_or(Miss::NoModel)?;
-        let nis = filter.update(&observation)?;
+        let mut updated = *filter;
+        let nis = updated.update(&observation)?;
+        // An untimed fix is used when the clock could not time the window: nothing but its
+        // spatial pattern says it is this artery's pulse. When the pulse is fading (the
+        // timed amplitude collapsed) the window's leading pattern need not be the pulse's:
+        // in the occlusion scene one lay at the array's edge, 6.4 mm off the artery, with a
+        // normalized innovation squared of 11, while those from irregular beats stay below
+        // 0.3. So an untimed fix may confirm the predicted path but never surprise it.
+        if untimed && nis > SURPRISE_NIS {
+            return Err(Miss::UntimedSurprise { nis });
+        }
+        *filter = updated;
         let corrected = filter.corrected(&observation);
         // A surprising fix means the path turned away from the model: slow down (like the
         // seed's halving of the step); clear fixes speed up again.
@@ -1144,8 +1157,13 @@ impl Tracker for BeatSlide {
             .map_err(|_| too_close.clone())?;
         self.filter = Some(filter);
         self.limit = limit;
+        // The length tracked counts from the first placement. Between the marks it is
+        // measured on the placements, not on the located points: both marks were made at
+        // rest after the surgeon's placing, but only the second one's approach was seen, so
+        // only its lag is removed, and the points' spacing is short by the first one's lag
+        // (4.5 mm, nearly a sixth of the radial wrist's 28 mm track, in the simulator).
         self.path_length_m = self
-            .seed_points
+            .seed_sensors
             .windows(2)
             .map(|w| w[0].distance_to(&w[1]))
             .sum();
@@ -1254,6 +1272,95 @@ mod tests {
         let rigid = tracker(0.0).unwrap();
         let p = SurfacePoint::new(0.05, 0.01);
         assert_eq!(rigid.sensor_from_belief(p), p);
+    }
+
+    /// A tracker seeded on an artery along x at z = 0 (points 5 mm apart, sliding +x).
+    fn seeded() -> BeatSlide {
+        let mut t = tracker(0.0).unwrap();
+        let p = t.params;
+        let settings = PathFilterSettings {
+            offset_prior_m: 0.002,
+            slope_prior: 0.3,
+            curvature_prior_per_m: p.curvature_prior_per_m,
+            curvature_walk: p.curvature_walk,
+            lag_prior_m: p.lag_prior_m,
+            lag_prior_sd_m: p.lag_prior_sd_m,
+            lag_walk: p.lag_walk,
+            gate_sigma: p.gate_sigma,
+            gate_min_m: p.gate_min_m,
+        };
+        let seeds: Vec<Observation> = [0.0, 0.005]
+            .iter()
+            .map(|&x| Observation {
+                point: SurfacePoint::new(x, 0.0),
+                sd_m: 0.0003,
+                lag_dir: [1.0, 0.0],
+            })
+            .collect();
+        t.filter = Some(PathFilter::from_observations(&seeds, 0.0, settings).unwrap());
+        t
+    }
+
+    /// A clear fix (SNR 10) with the artery `offset_m` off the array's centre, the sensor
+    /// 15 mm along the path.
+    fn fix(offset_m: f64) -> BeatFix {
+        BeatFix {
+            t_mid_s: 10.0,
+            late_s: 0.0,
+            kernel: KernelFit {
+                offset_z_m: offset_m,
+                element: 4.5 + offset_m / 0.002,
+                offset_se_m: 0.0003,
+                amplitude: 10.0,
+                amplitude_se: 1.0,
+                baseline: 0.0,
+                width_m: 0.005,
+                chi2: 6.0,
+                at_edge: false,
+            },
+            sensor: SurfacePoint::new(0.015, 0.0),
+            lag_dir: [1.0, 0.0],
+            noise_sd_n: 0.01,
+            aligned: Waveform::zeros(),
+        }
+    }
+
+    #[test]
+    fn an_untimed_fix_may_confirm_the_path_but_not_surprise_it() {
+        let base = seeded();
+        let nis = |offset_m: f64| {
+            let mut f = base.filter.unwrap();
+            let o = Observation {
+                point: fix(offset_m).point(),
+                sd_m: base.fix_sd(&fix(offset_m).kernel),
+                lag_dir: [1.0, 0.0],
+            };
+            f.update(&o).ok()
+        };
+        // An offset the gate passes but the model finds surprising (NIS between 4 and the
+        // gate's 16), and one it expects.
+        let surprising = (1..200)
+            .map(|i| i as f64 * 5e-5)
+            .find(|&d| nis(d).is_some_and(|n| n > 2.0 * SURPRISE_NIS))
+            .expect("some offset inside the gate surprises the model");
+        assert!(nis(surprising).is_some_and(|n| n < 16.0));
+        let expected = surprising / 4.0;
+        assert!(nis(expected).is_some_and(|n| n < SURPRISE_NIS));
+        // Timed, the surprising fix is taken (the path turned); untimed it is refused and
+        // the path model is left as it was.
+        let mut timed = base.clone();
+        assert!(timed.accept(&fix(surprising), false).is_ok());
+        let mut untimed = base.clone();
+        let why = untimed.accept(&fix(surprising), true);
+        assert!(
+            matches!(why, Err(Miss::UntimedSurprise { nis }) if nis > SURPRISE_NIS),
+            "{why:?}"
+        );
+        assert_eq!(untimed.filter, base.filter);
+        // An untimed fix on the predicted path is taken.
+        let mut confirming = base.clone();
+        assert!(confirming.accept(&fix(expected), true).is_ok());
+        assert_ne!(confirming.filter, base.filter);
     }
 
     #[test]
