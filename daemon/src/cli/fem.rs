@@ -1,6 +1,8 @@
 //! `pulsetrack fem`: run the seed FEM studies or one model file; print a summary, JSON
 //! records, and plots like the papers' figures.
 
+use crate::cli::stdout::outln;
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -112,7 +114,7 @@ fn emit(args: &Args, runs: &[ModelRun], text: impl FnOnce()) -> Result<(), Strin
     if args.json {
         let records: Vec<Record> = runs.iter().flat_map(|r| r.records()).collect();
         let s = serde_json::to_string(&records).map_err(|e| e.to_string())?;
-        println!("{s}");
+        outln!("{s}");
     } else {
         text();
     }
@@ -124,13 +126,19 @@ fn kpa(v: f64) -> f64 {
 }
 
 fn print_runs(runs: &[ModelRun]) {
-    println!(
+    outln!(
         "{:<24} {:>7} {:>10} {:>10} {:>12} {:>9} {:>8}",
-        "model", "t (s)", "peak kPa", "x_peak mm", "vm(x=0) kPa", "dofs", "wall s"
+        "model",
+        "t (s)",
+        "peak kPa",
+        "x_peak mm",
+        "vm(x=0) kPa",
+        "dofs",
+        "wall s"
     );
     for r in runs {
         for t in &r.times {
-            println!(
+            outln!(
                 "{:<24} {:>7.3} {:>10.3} {:>10.2} {:>12.3} {:>9} {:>8.3}",
                 r.name,
                 t.t_s,
@@ -151,10 +159,14 @@ fn print_seed_001(s: &Seed001, o: &StudyOptions) {
     } else {
         "linear"
     };
-    println!("\nTable 1 of paper 001 (peak top von Mises, kPa) against this model ({kind}):");
-    println!(
+    outln!("\nTable 1 of paper 001 (peak top von Mises, kPa) against this model ({kind}):");
+    outln!(
         "{:<18} {:>7} {:>9} {:>9} {:>8}",
-        "model", "t (s)", "paper", "ours", "ours/paper"
+        "model",
+        "t (s)",
+        "paper",
+        "ours",
+        "ours/paper"
     );
     for (name, paper) in [
         ("healthy-artery", TABLE1_HEALTHY_PA),
@@ -162,7 +174,7 @@ fn print_seed_001(s: &Seed001, o: &StudyOptions) {
     ] {
         if let Some(ours) = s.peaks(name) {
             for ((t, p), v) in TABLE1_TIMES_S.iter().zip(paper).zip(ours) {
-                println!(
+                outln!(
                     "{:<18} {:>7.3} {:>9.3} {:>9.3} {:>8.3}",
                     name,
                     t,
@@ -176,7 +188,7 @@ fn print_seed_001(s: &Seed001, o: &StudyOptions) {
                 s.peaks(name).and_then(|v| v.first().copied()),
                 s.peaks(name).and_then(|v| v.last().copied()),
             ) {
-                println!(
+                outln!(
                     "{:<18} systolic rise: paper {:.3} kPa, ours {:.3} kPa",
                     name,
                     kpa(rise_paper),
@@ -190,8 +202,8 @@ fn print_seed_001(s: &Seed001, o: &StudyOptions) {
 fn print_seed_002(s: &Seed002) {
     print_runs(&s.base);
     for sw in &s.sweeps {
-        println!("\nsweep {} ({}):", sw.name, sw.label);
-        println!(
+        outln!("\nsweep {} ({}):", sw.name, sw.label);
+        outln!(
             "{:>10} {:>22} {:>16} {:>16} {:>22}",
             "value",
             "swing at x=0 (kPa)",
@@ -206,7 +218,7 @@ fn print_seed_002(s: &Seed002) {
                 |t: Option<&sim::fem::run::TimeResult>| t.map_or(f64::NAN, |t| t.summary.peak);
             let height =
                 |t: Option<&sim::fem::run::TimeResult>| t.map_or(f64::NAN, |t| t.lumen_height_m);
-            println!(
+            outln!(
                 "{:>10.2} {:>22.4} {:>16.3} {:>16.3} {:>10.3} / {:<9.3}",
                 p.value,
                 kpa(p.swing_pa),
@@ -217,10 +229,10 @@ fn print_seed_002(s: &Seed002) {
             );
         }
     }
-    println!("\ntip shapes at 3 mm (systole, linear): peak and von Mises over the artery");
+    outln!("\ntip shapes at 3 mm (systole, linear): peak and von Mises over the artery");
     for r in &s.tips {
         if let Some(t) = r.times.first() {
-            println!(
+            outln!(
                 "{:<18} peak {:>8.3} kPa at x = {:>6.2} mm; at x = 0: {:>8.3} kPa; overshoot ratio {:.2}",
                 r.name,
                 kpa(t.summary.peak),
@@ -420,12 +432,20 @@ fn kernel_table(refine: u32) -> Result<(), String> {
             0.005,
         ),
     ];
-    println!(
+    outln!(
         "tissue E = 20 kPa, nu = 0.45, plane strain; kernel = surface pressure per Pa of lumen pressure"
     );
-    println!(
+    outln!(
         "{:<42} {:>6} {:>10} {:>10} {:>7} {:>10} {:>10} {:>9} {:>7}",
-        "tube", "h mm", "fem p(0)", "analytic", "ratio", "fem p(h)", "fem min", "x_min mm", "net"
+        "tube",
+        "h mm",
+        "fem p(0)",
+        "analytic",
+        "ratio",
+        "fem p(h)",
+        "fem min",
+        "x_min mm",
+        "net"
     );
     for (name, a, t, wall, h) in cases {
         let p = KernelParams {
@@ -446,7 +466,7 @@ fn kernel_table(refine: u32) -> Result<(), String> {
             }
         }
         let an = analytic_per_pa(0.0, a, h);
-        println!(
+        outln!(
             "{:<42} {:>6.1} {:>10.5} {:>10.5} {:>7.3} {:>10.5} {:>10.5} {:>9.2} {:>7.4}",
             name,
             h * 1e3,
@@ -459,7 +479,7 @@ fn kernel_table(refine: u32) -> Result<(), String> {
             k.net_force_m() / k.total_magnitude_m()
         );
     }
-    println!(
+    outln!(
         "analytic: p(h) = 0, min -{:.4} x p(0) at x = sqrt(3) h",
         1.0 / 8.0
     );
