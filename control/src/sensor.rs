@@ -45,6 +45,33 @@ impl ArrayGeometry {
         middle + offset_z_m / (self.direction * self.pitch_m)
     }
 
+    /// Refuse a geometry no tracker can work with (every tracker checks it when built).
+    pub fn check(&self) -> Result<(), String> {
+        let fs = self.sample_rate_hz;
+        if !(fs.is_finite() && fs > 0.0) {
+            return Err(format!("sample rate must be positive, got {fs} Hz"));
+        }
+        if !(self.noise_sd_n.is_finite() && self.noise_sd_n > 0.0) {
+            return Err(format!(
+                "noise SD must be positive, got {} N",
+                self.noise_sd_n
+            ));
+        }
+        if !(self.pitch_m.is_finite() && self.pitch_m > 0.0) {
+            return Err(format!(
+                "element pitch must be positive, got {} m",
+                self.pitch_m
+            ));
+        }
+        if self.direction != 1.0 && self.direction != -1.0 {
+            return Err(format!(
+                "direction must be +1 or -1, got {}",
+                self.direction
+            ));
+        }
+        Ok(())
+    }
+
     /// Sampling interval, s.
     pub fn dt_s(&self) -> f64 {
         1.0 / self.sample_rate_hz
@@ -54,6 +81,37 @@ impl ArrayGeometry {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn check_refuses_what_no_tracker_can_use() {
+        assert!(ArrayGeometry::default().check().is_ok());
+        let bad = [
+            ArrayGeometry {
+                sample_rate_hz: 0.0,
+                ..Default::default()
+            },
+            ArrayGeometry {
+                noise_sd_n: f64::NAN,
+                ..Default::default()
+            },
+            ArrayGeometry {
+                pitch_m: -0.002,
+                ..Default::default()
+            },
+            ArrayGeometry {
+                direction: 0.5,
+                ..Default::default()
+            },
+        ];
+        for g in bad {
+            assert!(g.check().is_err(), "{g:?} accepted");
+        }
+        let mirrored = ArrayGeometry {
+            direction: -1.0,
+            ..Default::default()
+        };
+        assert!(mirrored.check().is_ok());
+    }
 
     #[test]
     fn offsets_are_symmetric_about_the_centre() {

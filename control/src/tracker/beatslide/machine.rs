@@ -207,24 +207,8 @@ impl BeatSlide {
 
     /// Build the tracker; allocates every buffer it will use.
     pub fn new(params: BeatSlideParams, geometry: ArrayGeometry) -> Result<Self, InvalidParams> {
+        geometry.check().map_err(InvalidParams)?;
         let fs = geometry.sample_rate_hz;
-        if !(fs.is_finite() && fs > 0.0) {
-            return Err(InvalidParams(format!(
-                "sample rate must be positive, got {fs} Hz"
-            )));
-        }
-        if !(geometry.noise_sd_n.is_finite() && geometry.noise_sd_n > 0.0) {
-            return Err(InvalidParams(format!(
-                "noise SD must be positive, got {} N",
-                geometry.noise_sd_n
-            )));
-        }
-        if !(geometry.pitch_m.is_finite() && geometry.pitch_m > 0.0) {
-            return Err(InvalidParams(format!(
-                "element pitch must be positive, got {} m",
-                geometry.pitch_m
-            )));
-        }
         check_params(&params, fs)?;
         let longest_s = params.mark_max_window_s.max(params.search_window_s).max(
             params.max_beats_per_fix as f64 * params.max_period_s * (1.0 + MAX_DELAY_FRACTION),

@@ -86,18 +86,8 @@ impl Seed2002 {
 
     /// Build the tracker; allocates every buffer it will use.
     pub fn new(params: Seed2002Params, geometry: ArrayGeometry) -> Result<Self, InvalidParams> {
+        geometry.check().map_err(InvalidParams)?;
         let fs = geometry.sample_rate_hz;
-        if !(fs.is_finite() && fs > 0.0) {
-            return Err(InvalidParams(format!(
-                "sample rate must be positive, got {fs} Hz"
-            )));
-        }
-        if !(geometry.noise_sd_n.is_finite() && geometry.noise_sd_n > 0.0) {
-            return Err(InvalidParams(format!(
-                "noise SD must be positive, got {} N",
-                geometry.noise_sd_n
-            )));
-        }
         let samples = |name: &str, seconds: f64| {
             let n = (seconds * fs).round();
             if n.is_finite() && n >= 3.0 && n <= MAX_WINDOW_SAMPLES as f64 {
