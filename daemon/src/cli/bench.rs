@@ -77,10 +77,11 @@ pub struct Row {
     pub trials: usize,
     /// Fraction of trials that followed the requested length.
     pub completion_rate: f64,
-    /// Lateral error of every autonomous point of every trial, pooled, m.
-    pub error_mean_m: f64,
-    pub error_sd_m: f64,
-    pub error_max_m: f64,
+    /// Lateral error of every autonomous point of every trial, pooled, m; null when no trial
+    /// located any point (an error of 0 would read as perfect on a front).
+    pub error_mean_m: Option<f64>,
+    pub error_sd_m: Option<f64>,
+    pub error_max_m: Option<f64>,
     /// Heartbeats (pulse cycles) per trial, from the start of autonomous tracking.
     pub beats_mean: f64,
     /// Simulated seconds of autonomous tracking per trial.
@@ -95,8 +96,8 @@ pub struct Row {
     pub beats_per_26cm_mean: Option<f64>,
     /// Autonomous points over all trials.
     pub points: usize,
-    /// The median over trials of each trial's own lateral error SD, m.
-    pub error_sd_trial_median_m: f64,
+    /// The median over the trials that located points of each one's own lateral error SD, m.
+    pub error_sd_trial_median_m: Option<f64>,
     /// How the trials ended, in trial order.
     pub end_reasons: Vec<String>,
     /// Wall-clock seconds per trial (the only machine-dependent field).
@@ -244,21 +245,23 @@ fn summarize(scene: &Scene, spec: &TrackerSpec, speed: Option<f64>, trials: &[Tr
             .sum::<f64>()
             / completed.len() as f64
     });
-    let mut per_trial_sd: Vec<f64> = trials.iter().map(|t| t.lateral_error_m.sd).collect();
+    let mut per_trial_sd: Vec<f64> = trials
+        .iter()
+        .filter(|t| t.located.iter().any(|p| !p.seed))
+        .map(|t| t.lateral_error_m.sd)
+        .collect();
     per_trial_sd.sort_by(f64::total_cmp);
-    let median_sd = per_trial_sd
-        .get(per_trial_sd.len() / 2)
-        .copied()
-        .unwrap_or(0.0);
+    let median_sd = per_trial_sd.get(per_trial_sd.len() / 2).copied();
+    let located = pooled.points > 0;
     let mean = |f: &dyn Fn(&TrialResult) -> f64| trials.iter().map(f).sum::<f64>() / n;
     Row {
         scene: scene.name.clone(),
         tracker: spec.label.clone(),
         trials: trials.len(),
         completion_rate: completed.len() as f64 / n,
-        error_mean_m: pooled.mean,
-        error_sd_m: pooled.sd,
-        error_max_m: pooled.max,
+        error_mean_m: located.then_some(pooled.mean),
+        error_sd_m: located.then_some(pooled.sd),
+        error_max_m: located.then_some(pooled.max),
         beats_mean: mean(&|t| t.beats as f64),
         duration_s_mean: mean(&|t| t.duration_s),
         backtracks_mean: mean(&|t| f64::from(t.backtracks)),
@@ -408,13 +411,13 @@ fn print_table(report: &Report) {
     );
     for r in &report.rows {
         outln!(
-            "{:<20} {:<16} {:>5.0}% {:>8.2} {:>8.2} {:>8.2} {:>7.1} {:>7} {:>8.1} {:>6.2}",
+            "{:<20} {:<16} {:>5.0}% {:>8} {:>8} {:>8} {:>7.1} {:>7} {:>8.1} {:>6.2}",
             r.scene,
             r.tracker,
             100.0 * r.completion_rate,
-            r.error_mean_m * 1e3,
-            r.error_sd_m * 1e3,
-            r.error_max_m * 1e3,
+            millimetres(r.error_mean_m),
+            millimetres(r.error_sd_m),
+            millimetres(r.error_max_m),
             r.beats_mean,
             r.beats_per_26cm_mean
                 .map_or("-".to_string(), |b| format!("{b:.1}")),
@@ -422,6 +425,11 @@ fn print_table(report: &Report) {
             r.backtracks_mean
         );
     }
+}
+
+/// Metres as millimetres with two decimals, `-` when there is no value.
+fn millimetres(m: Option<f64>) -> String {
+    m.map_or("-".to_string(), |m| format!("{:.2}", m * 1e3))
 }
 
 /// Per scene: mean track time against lateral error SD, one series per tracker through its
@@ -454,12 +462,12 @@ fn plot_fronts(report: &Report, dir: &Path) -> Result<Vec<PathBuf>, crate::plot:
                 .rows
                 .iter()
                 .filter(|r| r.scene == scene && r.tracker_name == name)
-                .map(|r| {
-                    (
+                .filter_map(|r| {
+                    Some((
                         r.speed_m_s.unwrap_or(0.0),
                         r.duration_s_mean,
-                        r.error_sd_m * 1e3,
-                    )
+                        r.error_sd_m? * 1e3,
+                    ))
                 })
                 .collect();
             points.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -510,6 +518,25 @@ mod tests {
 
     fn small_config() -> Config {
         load_config(None).expect("shipped config")
+    }
+
+    /// A tracker that never located a point has no error (null), not an error of zero that
+    /// would plot as perfect.
+    #[test]
+    fn no_located_point_gives_null_errors() {
+        let config = small_config();
+        let scenes = select_scenes("seed-radial-wrist").expect("shipped");
+        let trackers = parse_trackers("seed2002").expect("valid");
+        let report = bench(&config, &scenes, &trackers, 1, 1, false).expect("runs");
+        let row = &report.rows[0];
+        assert_eq!(row.points, 0, "{row:?}");
+        assert_eq!(row.completion_rate, 0.0);
+        assert_eq!(row.error_sd_m, None);
+        assert_eq!(row.error_mean_m, None);
+        assert_eq!(row.error_max_m, None);
+        assert_eq!(row.error_sd_trial_median_m, None);
+        let json = serde_json::to_value(row).expect("serializes");
+        assert!(json["error_sd_m"].is_null(), "{json}");
     }
 
     /// The JSON has the documented fields, and the same seed gives the same document apart
