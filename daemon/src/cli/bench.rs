@@ -13,6 +13,7 @@
 //! setting in mm/s after `@`: `beatslide@20` runs `beatslide` with its speed set to
 //! 20 mm/s (`TrackerParams::set_speed`).
 
+use crate::cli::sim::load_config;
 use crate::cli::stdout::outln;
 
 use std::path::{Path, PathBuf};
@@ -119,19 +120,6 @@ pub fn run(args: &Args) -> ExitCode {
         Err(message) => {
             eprintln!("pulsetrack bench: {message}");
             ExitCode::FAILURE
-        }
-    }
-}
-
-fn load_config(path: Option<&Path>) -> Result<Config, String> {
-    match path {
-        Some(p) => config::load_file::<Config>(p)
-            .map(|l| l.value)
-            .map_err(|e| e.to_string()),
-        None => {
-            let (name, text) = config::shipped::SIM_CONFIG;
-            config::load_str::<Config>(&format!("<shipped {name}>"), text)
-                .map_err(|e| e.to_string())
         }
     }
 }

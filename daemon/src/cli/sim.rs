@@ -65,7 +65,8 @@ pub fn run(args: &Args) -> ExitCode {
     }
 }
 
-fn load_config(path: Option<&Path>) -> Result<Config, String> {
+/// The config named on the command line, else the embedded sim default (`sim` and `bench`).
+pub(crate) fn load_config(path: Option<&Path>) -> Result<Config, String> {
     match path {
         Some(p) => config::load_file::<Config>(p)
             .map(|l| l.value)
