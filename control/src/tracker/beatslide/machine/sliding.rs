@@ -1,0 +1,298 @@
+//! `beatslide` while tracking: plan the next target from the path filter, slide, analyse
+//! each window of beats, accept or refuse its fix, and update the path and the beat clock.
+
+use super::*;
+
+impl BeatSlide {
+    /// The next target and speed from the path filter, for the sensor at `sensor`.
+    pub(super) fn plan(&self, sensor: SurfacePoint) -> Option<(SurfacePoint, f64)> {
+        let filter = self.filter.as_ref()?;
+        let period = self.pulse.map_or(1.0, |p| p.clock.period_s());
+        let window_s = self.beats_per_fix as f64 * period;
+        let (s_now, _) = filter.to_local(sensor);
+        let s_now = s_now.max(0.0);
+        let mut travel = self
+            .params
+            .max_travel_per_fix_m
+            .min(self.speed_cap_m_s * window_s);
+        // The step from the model's confidence: shorten it until the path one step past
+        // the sensor is predicted within `prediction_sd_m`.
+        for _ in 0..30 {
+            if travel <= MIN_TRAVEL_PER_FIX_M
+                || filter.predict(s_now + travel).sd_m <= self.params.prediction_sd_m
+            {
+                break;
+            }
+            travel *= 0.85;
+        }
+        let travel = travel.max(MIN_TRAVEL_PER_FIX_M);
+        let speed = (travel / window_s).min(self.speed_cap_m_s);
+        // Aim at least `MIN_LOOKAHEAD_M` ahead even when the steps are short (slow speed
+        // settings): the motion then stays along the artery, so the lag, still uncertain
+        // early on, trails along the path instead of across it.
+        let s_target = (s_now + (2.0 * travel).max(MIN_LOOKAHEAD_M)).min(self.params.max_blind_m);
+        let target = filter.predict(s_target).point;
+        target.is_finite().then_some((target, speed))
+    }
+
+    pub(super) fn start_sliding(&mut self, sensor: SurfacePoint, t_s: f64) {
+        match self.plan(sensor) {
+            Some((target, speed_m_s)) => {
+                self.state = State::Sliding {
+                    from_s: None,
+                    len_s: self.window_len_s(),
+                    misses: 0,
+                    target,
+                    speed_m_s,
+                };
+            }
+            None => self.finish(EndReason::Lost, t_s),
+        }
+    }
+
+    pub(super) fn window_len_s(&self) -> f64 {
+        self.beats_per_fix as f64 * self.pulse.map_or(1.0, |p| p.clock.period_s())
+    }
+
+    pub(super) fn step_sliding(&mut self, input: &TrackerInput<'_>) {
+        let State::Sliding {
+            from_s,
+            len_s,
+            misses,
+            target,
+            speed_m_s,
+        } = self.state
+        else {
+            return;
+        };
+        let t = input.frame.t_s;
+        let from = from_s.unwrap_or(t);
+        self.state = State::Sliding {
+            from_s: Some(from),
+            len_s,
+            misses,
+            target,
+            speed_m_s,
+        };
+        // Never further than `max_blind_m` beyond the last fix along the path.
+        if let Some(f) = &self.filter
+            && f.to_local(input.sensor).0 > self.params.max_blind_m
+        {
+            self.last_miss = Some(Miss::Blind);
+            self.state = State::Stopping {
+                frames: 0,
+                attempt: 1,
+            };
+            return;
+        }
+        if t - from + 1e-9 < len_s || !self.events.has_room_for(EVENTS_PER_ANALYSIS) {
+            return;
+        }
+        let timed = self.analyse(from).map_err(Miss::from).and_then(|fix| {
+            let point = self.accept(&fix, false)?;
+            Ok((fix, point))
+        });
+        // A beat the clock could not time (irregular beats): the pulse's spatial pattern
+        // without any timing, from the window's coherent part (control::classify).
+        let fix = match timed {
+            Err(Miss::Weak { .. } | Miss::Timing { .. }) => {
+                self.untimed_fix(from).and_then(|fix| {
+                    let point = self.accept(&fix, true)?;
+                    Ok((fix, point))
+                })
+            }
+            other => other,
+        };
+        match fix {
+            Ok((fix, point)) => {
+                self.after_fix(&fix, point, input.sensor, t);
+                return;
+            }
+            Err(why) => self.last_miss = Some(why),
+        }
+        if misses + 1 >= self.params.sliding_misses {
+            self.state = State::Stopping {
+                frames: 0,
+                attempt: 1,
+            };
+        } else {
+            self.state = State::Sliding {
+                from_s: Some(t),
+                len_s: self.window_len_s(),
+                misses: misses + 1,
+                target,
+                speed_m_s,
+            };
+        }
+    }
+
+    /// A fix from the window's coherent spatial pattern, with no timing model: the
+    /// leading eigenvector of the elements' covariance (`control::classify`'s features),
+    /// when the classifier calls the window an artery. Its sign is the one the kernel fits
+    /// better.
+    pub(super) fn untimed_fix(&mut self, from_s: f64) -> Result<BeatFix, Miss> {
+        let window = self.history.since(from_s);
+        let sensor = window.mean_sensor().ok_or(Miss::NoPosition)?;
+        let (Some(t0), Some(t1)) = (window.first_t_s(), window.last_t_s()) else {
+            return Err(Miss::NoPosition);
+        };
+        self.untimed.clear();
+        for f in window.frames() {
+            // Frames in the history are finite; a refusal only shortens the window.
+            let _ = self.untimed.push(f);
+        }
+        let params = ClassifyParams {
+            noise_sd_n: self.geometry.noise_sd_n,
+            ..ClassifyParams::default()
+        };
+        let class = self
+            .untimed
+            .classify(&params, None)
+            .map_err(|_| Miss::Beat(BeatMiss::Empty))?;
+        if !matches!(class.kind, Kind::Artery | Kind::ArteryStenosisSuspected) {
+            return Err(Miss::Untimed);
+        }
+        let f = class.features;
+        // Each element's coherent swing has a standard error of about 2√2 σ/√n.
+        let se = 2.0 * std::f64::consts::SQRT_2 * f.noise_sd_n / (f.frames.max(1) as f64).sqrt();
+        let flipped = f.swing_n.map(|v| -v);
+        let kernel = match (
+            fit_kernel(&f.swing_n, se, &self.geometry),
+            fit_kernel(&flipped, se, &self.geometry),
+        ) {
+            (Ok(a), Ok(b)) if b.chi2 < a.chi2 => b,
+            (Ok(a), _) => a,
+            (Err(_), Ok(b)) => b,
+            (Err(e), Err(_)) => return Err(e.into()),
+        };
+        Ok(BeatFix {
+            t_mid_s: 0.5 * (t0 + t1),
+            late_s: 0.0,
+            kernel,
+            sensor,
+            lag_dir: window.mean_lag(),
+            noise_sd_n: f.noise_sd_n,
+            aligned: Waveform::zeros(),
+        })
+    }
+
+    pub(super) fn analyse(&mut self, from_s: f64) -> Result<BeatFix, BeatMiss> {
+        let Some(pulse) = self.pulse else {
+            return Err(BeatMiss::Empty);
+        };
+        let window = self.history.since(from_s);
+        analyse_window(
+            &window,
+            pulse.clock.phase(),
+            &pulse.template,
+            self.spatial,
+            MAX_DELAY_FRACTION,
+            self.geometry.noise_sd_n,
+            &self.geometry,
+            &mut self.noise,
+        )
+    }
+
+    /// Is this fix the artery? A clear pulse, placed on the array, on the predicted path.
+    /// Returns the artery point with the sensor's lag removed.
+    pub(super) fn accept(&mut self, fix: &BeatFix, untimed: bool) -> Result<SurfacePoint, Miss> {
+        let k = &fix.kernel;
+        // A pulse much weaker than this artery's usual is the artery leaving the array (or
+        // something else): not a fix.
+        let usual = self
+            .pulse
+            .map_or(0.0, |p| p.snr_per_beat * (self.beats_per_fix as f64).sqrt());
+        let needed = self.params.fix_snr.max(USUAL_SNR_FRACTION * usual);
+        if k.snr().is_nan() || k.snr() < needed {
+            return Err(Miss::Weak {
+                snr: k.snr(),
+                needed,
+            });
+        }
+        if k.at_edge || !k.offset_se_m.is_finite() {
+            return Err(Miss::AtEdge { element: k.element });
+        }
+        // A beat far off the clock, for a clock that usually keeps time, and weaker than
+        // usual, is a window spoiled by something else (the artery sweeping across the
+        // array, a lump). A clear beat off the clock is the heart changing its rate.
+        let period = self.window_len_s() / self.beats_per_fix as f64;
+        let usual_late = self.pulse.map_or(0.0, |p| p.late_rms_s);
+        let late_limit = (LATE_FACTOR * usual_late)
+            .max(MIN_LATE_FRACTION * period)
+            .min(0.95 * MAX_DELAY_FRACTION * period);
+        if fix.late_s.abs() > late_limit && k.snr() < SPOILED_SNR_FRACTION * usual {
+            return Err(Miss::Timing { late_s: fix.late_s });
+        }
+        let observation = Observation {
+            point: fix.point(),
+            sd_m: self.fix_sd(k),
+            lag_dir: fix.lag_dir,
+        };
+        let filter = self.filter.as_mut().ok_or(Miss::NoModel)?;
+        let mut updated = *filter;
+        let nis = updated.update(&observation)?;
+        // An untimed fix is used when the clock could not time the window: nothing but its
+        // spatial pattern says it is this artery's pulse. When the pulse is fading (the
+        // timed amplitude collapsed) the window's leading pattern need not be the pulse's:
+        // in the occlusion scene one lay at the array's edge, 6.4 mm off the artery, with a
+        // normalized innovation squared of 11, while those from irregular beats stay below
+        // 0.3. So an untimed fix may confirm the predicted path but never surprise it.
+        if untimed && nis > SURPRISE_NIS {
+            return Err(Miss::UntimedSurprise { nis });
+        }
+        *filter = updated;
+        let corrected = filter.corrected(&observation);
+        // A surprising fix means the path turned away from the model: slow down (like the
+        // seed's halving of the step); clear fixes speed up again.
+        if nis > SURPRISE_NIS {
+            self.speed_cap_m_s = (self.speed_cap_m_s * SURPRISE_SLOWDOWN)
+                .max(MIN_TRAVEL_PER_FIX_M / self.window_len_s().max(1e-3));
+        }
+        Ok(corrected)
+    }
+
+    pub(super) fn after_fix(
+        &mut self,
+        fix: &BeatFix,
+        point: SurfacePoint,
+        sensor: SurfacePoint,
+        t_s: f64,
+    ) {
+        let located = self.located(fix.t_mid_s, point, fix.sensor, &fix.kernel, false);
+        self.record(point);
+        self.emit(TrackerEvent::Located(located));
+        self.spatial = SpatialPrior {
+            element: fix.kernel.element,
+            width_m: fix.kernel.width_m,
+        };
+        let beats = self.beats_per_fix as f64;
+        if let Some(p) = &mut self.pulse {
+            let confidence = (fix.kernel.snr() / self.params.target_snr).powi(2).min(1.0);
+            p.clock.correct(fix.t_mid_s, fix.late_s, confidence);
+            p.late_rms_s = (0.8 * p.late_rms_s.powi(2) + 0.2 * fix.late_s.powi(2)).sqrt();
+            let snr_beat = fix.kernel.snr() / beats.sqrt();
+            p.snr_per_beat = 0.7 * p.snr_per_beat + 0.3 * snr_beat;
+            let norm = fix.aligned.norm();
+            if norm > 0.0 && confidence >= 1.0 {
+                let learned =
+                    p.template * (1.0 - TEMPLATE_RATE) + fix.aligned / norm * TEMPLATE_RATE;
+                let n = learned.norm();
+                if n > 0.0 {
+                    p.template = learned / n;
+                    p.template_pp = peak_to_peak(&p.template);
+                }
+            }
+        }
+        self.report_period(t_s);
+        self.choose_beats_per_fix();
+        self.speed_cap_m_s = (self.speed_cap_m_s * SPEED_RECOVERY).min(self.params.max_speed_m_s);
+        if self.length_reached() {
+            self.finish(EndReason::LengthReached, t_s);
+            return;
+        }
+        self.start_sliding(sensor, t_s);
+        if let State::Sliding { from_s, .. } = &mut self.state {
+            *from_s = Some(t_s);
+        }
+    }
+}
