@@ -1,0 +1,196 @@
+//! The supervisor's answers to console requests: each verb accepted or refused for the
+//! operating state, with the reason, and turned into commands for the control loop.
+
+use super::*;
+
+impl Supervisor {
+    pub(super) fn on_request(&mut self, id: u64, verb: Verb, to: Responder) {
+        if self.shutdown.is_some() {
+            return self.reply_err(
+                id,
+                to,
+                ErrorCode::Unavailable,
+                "the daemon is shutting down",
+            );
+        }
+        if let Verb::Status = verb {
+            let status = self.status_json();
+            return self.reply_ok(id, to, status, false);
+        }
+        if let Err(why) = state::admit(self.state, &verb, &self.context()) {
+            return self.reply_err(id, to, ErrorCode::WrongState, &why);
+        }
+        let t = self.now_s();
+        let verb_name = verb.name();
+        let logged = json!({"event": "verb", "t_s": t, "verb": verb_name, "id": id, "args": format!("{verb:?}")});
+        self.record(Topic::Events, t, &logged);
+        match verb {
+            Verb::Status | Verb::Subscribe { .. } | Verb::Unsubscribe => {
+                self.reply_ok(id, to, json!({}), false)
+            }
+            Verb::Enable => {
+                let seq = self.seq();
+                self.send(
+                    ControlCommand::Enable { seq },
+                    Purpose::Enable,
+                    Some((id, to)),
+                );
+            }
+            Verb::Disable => {
+                self.end_trial(TrialEnd::Disabled);
+                let seq = self.seq();
+                self.send(
+                    ControlCommand::Disable { seq },
+                    Purpose::Disable,
+                    Some((id, to)),
+                );
+            }
+            Verb::Estop => {
+                let seq = self.seq();
+                self.send(
+                    ControlCommand::Estop { seq },
+                    Purpose::Estop,
+                    Some((id, to)),
+                );
+            }
+            Verb::Reset => {
+                let seq = self.seq();
+                self.send(
+                    ControlCommand::Reset { seq },
+                    Purpose::Reset,
+                    Some((id, to)),
+                );
+            }
+            Verb::Home => {
+                let target = self.s.home;
+                self.manual_move(id, to, target, self.s.move_speed_m_s);
+            }
+            Verb::Move {
+                x_m,
+                z_m,
+                speed_m_s,
+            } => {
+                let speed = speed_m_s.unwrap_or(self.s.move_speed_m_s);
+                self.manual_move(id, to, SurfacePoint::new(x_m, z_m), speed);
+            }
+            Verb::Jog { dx_m, dz_m } => {
+                let from = self
+                    .links
+                    .status
+                    .read()
+                    .map(|s| s.setpoint)
+                    .unwrap_or_default();
+                let target = SurfacePoint::new(from.x_m + dx_m, from.z_m + dz_m);
+                self.manual_move(id, to, target, self.s.move_speed_m_s);
+            }
+            Verb::Mark => self.mark(id, to, t),
+            Verb::Track { length_m } => self.track(id, to, t, length_m),
+            Verb::Pause => {
+                let seq = self.seq();
+                self.motion_seq = seq;
+                self.send(ControlCommand::Hold { seq }, Purpose::Pause, Some((id, to)));
+            }
+            Verb::Resume => {
+                self.set_state(OpState::Tracking);
+                if let Some(target) = self.tracker_target.take() {
+                    self.tracker_move(target, self.s.move_speed_m_s);
+                }
+                self.reply_ok(id, to, json!({}), true);
+            }
+            Verb::Stop => {
+                match self.state {
+                    OpState::Tracking | OpState::Paused => {
+                        if let Some(tr) = self.tracker.as_mut() {
+                            tr.stop();
+                        }
+                        self.end_trial(TrialEnd::Tracker(control::tracker::EndReason::Stopped));
+                    }
+                    OpState::Seeding => self.end_trial(TrialEnd::Abandoned),
+                    _ => {}
+                }
+                let seq = self.seq();
+                self.motion_seq = seq;
+                self.send(
+                    ControlCommand::Hold { seq },
+                    Purpose::StopHold,
+                    Some((id, to)),
+                );
+            }
+            Verb::Debug(DebugAction::SilenceTactile { duration_s }) => {
+                let seq = self.seq();
+                self.send(
+                    ControlCommand::SilenceTactile { seq, duration_s },
+                    Purpose::Debug,
+                    Some((id, to)),
+                );
+            }
+        }
+    }
+
+    pub(super) fn manual_move(&mut self, id: u64, to: Responder, target: SurfacePoint, speed: f64) {
+        if !self.in_workspace(target) {
+            let why = format!(
+                "target ({:.4}, {:.4}) m is outside the workspace x [{}, {}] m, z [{}, {}] m",
+                target.x_m,
+                target.z_m,
+                self.s.workspace_x_m[0],
+                self.s.workspace_x_m[1],
+                self.s.workspace_z_m[0],
+                self.s.workspace_z_m[1]
+            );
+            return self.reply_err(id, to, ErrorCode::OutOfRange, &why);
+        }
+        let speed = speed.min(self.s.max_speed_m_s);
+        let seq = self.seq();
+        self.send(
+            ControlCommand::MoveTo {
+                seq,
+                target,
+                speed_m_s: speed,
+            },
+            Purpose::ManualMove,
+            Some((id, to)),
+        );
+    }
+
+    pub(super) fn mark(&mut self, id: u64, to: Responder, t: f64) {
+        if self.state == OpState::Done || self.trial.is_none() {
+            self.start_trial(t);
+        }
+        let Some(tracker) = self.tracker.as_mut() else {
+            return self.reply_err(id, to, ErrorCode::Unavailable, "no tracker could be built");
+        };
+        match tracker.mark() {
+            Ok(()) => {
+                self.set_state(OpState::Seeding);
+                self.reply_ok(id, to, json!({}), true);
+            }
+            Err(e) => self.reply_err(id, to, ErrorCode::WrongState, &e.to_string()),
+        }
+    }
+
+    pub(super) fn track(&mut self, id: u64, to: Responder, t: f64, length_m: Option<f64>) {
+        let Some(tracker) = self.tracker.as_mut() else {
+            return self.reply_err(
+                id,
+                to,
+                ErrorCode::WrongState,
+                "no trial: mark two seed points first",
+            );
+        };
+        match tracker.start(TrackLimit { length_m }) {
+            Ok(()) => {
+                if let Some(trial) = self.trial.as_mut() {
+                    trial.track_started_t_s = Some(t);
+                    trial.length_m = length_m;
+                }
+                self.tracker_target = None;
+                self.set_state(OpState::Tracking);
+                self.reply_ok(id, to, json!({"length_m": length_m}), true);
+            }
+            Err(e) => self.reply_err(id, to, ErrorCode::WrongState, &e.to_string()),
+        }
+    }
+
+    // ----- trials -----
+}

@@ -1,0 +1,157 @@
+//! The supervisor's side of a trial: tactile frames into the tracker, the tracker's moves
+//! into bounded motion commands, and its events onto the console and the recording.
+
+use super::*;
+
+impl Supervisor {
+    pub(super) fn on_frame(&mut self, f: StampedFrame) {
+        self.frames_seen += 1;
+        let v = report::frame_json(&f);
+        self.record(Topic::Tactile, f.frame.t_s, &v);
+        let mut ev = v;
+        if let Value::Object(o) = &mut ev {
+            o.insert("event".into(), Value::from("tactile"));
+        }
+        self.publish(Stream::Tactile, f.frame.seq, &ev, false);
+
+        let settled = f.settled && f.motion_seq == self.motion_seq;
+        if self.state == OpState::Moving && settled {
+            self.set_state(OpState::Holding);
+        }
+        // The tracker sees every frame of its trial (it may still owe events from an
+        // acquisition that just ended) except while paused: there the arm holds for the
+        // operator, and `settled` would wrongly vouch for the tracker's interrupted move.
+        if self.state == OpState::Paused {
+            return;
+        }
+        let Some(tracker) = self.tracker.as_mut() else {
+            return;
+        };
+        let out = tracker.step(&TrackerInput {
+            frame: &f.frame,
+            sensor: f.sensor,
+            settled,
+        });
+        if let Some(e) = out.event {
+            self.on_tracker_event(e);
+        }
+        match self.state {
+            OpState::Seeding => {
+                // The mark is over when its result (located or missed) has been reported,
+                // which may be a frame or more after the tracker's phase went back.
+                let result = matches!(
+                    out.event,
+                    Some(TrackerEvent::Located(_) | TrackerEvent::Missed { .. })
+                );
+                if result {
+                    self.set_state(OpState::Holding);
+                }
+            }
+            OpState::Tracking => match out.motion {
+                MotionCommand::MoveTo { target, speed_m_s } => {
+                    if self.tracker_target != Some(target) {
+                        self.tracker_move(target, speed_m_s);
+                    }
+                }
+                MotionCommand::Hold => {
+                    if self.tracker_target.take().is_some() {
+                        let seq = self.seq();
+                        self.motion_seq = seq;
+                        self.send(ControlCommand::Hold { seq }, Purpose::TrackerHold, None);
+                    }
+                }
+            },
+            _ => {}
+        }
+    }
+
+    pub(super) fn tracker_move(&mut self, target: SurfacePoint, speed_m_s: f64) {
+        self.tracker_target = Some(target);
+        if !self.in_workspace(target) {
+            tracing::info!(
+                "tracker target ({:.4}, {:.4}) m is outside the workspace",
+                target.x_m,
+                target.z_m
+            );
+            if let Some(tr) = self.tracker.as_mut() {
+                tr.target_unreachable();
+            }
+            return;
+        }
+        let seq = self.seq();
+        self.motion_seq = seq;
+        let speed = if speed_m_s.is_finite() && speed_m_s > 0.0 {
+            speed_m_s.min(self.s.max_speed_m_s)
+        } else {
+            self.s.move_speed_m_s
+        };
+        self.send(
+            ControlCommand::MoveTo {
+                seq,
+                target,
+                speed_m_s: speed,
+            },
+            Purpose::TrackerMove,
+            None,
+        );
+    }
+
+    pub(super) fn on_tracker_event(&mut self, e: TrackerEvent) {
+        let truth = self.truth;
+        let (v, durable) = match e {
+            TrackerEvent::Located(p) => {
+                let rec = self
+                    .trial
+                    .as_mut()
+                    .map(|t| t.add_located(&p, truth, self.judge.as_deref()));
+                (
+                    json!({"event": "detection", "kind": "located", "t_s": p.t_s, "point": rec}),
+                    true,
+                )
+            }
+            TrackerEvent::Missed { t_s, at } => {
+                if let Some(t) = self.trial.as_mut() {
+                    t.misses += 1;
+                }
+                (
+                    json!({"event": "detection", "kind": "missed", "t_s": t_s, "x_m": at.x_m, "z_m": at.z_m}),
+                    true,
+                )
+            }
+            TrackerEvent::Backtracking { t_s, toward } => {
+                if let Some(t) = self.trial.as_mut() {
+                    t.backtracks += 1;
+                }
+                (
+                    json!({"event": "detection", "kind": "backtracking", "t_s": t_s, "x_m": toward.x_m, "z_m": toward.z_m}),
+                    false,
+                )
+            }
+            TrackerEvent::Pulse { t_s, period_s } => {
+                if let Some(t) = self.trial.as_mut() {
+                    t.pulse_period_s = Some(period_s);
+                }
+                (
+                    json!({"event": "detection", "kind": "pulse", "t_s": t_s, "period_s": period_s}),
+                    false,
+                )
+            }
+            TrackerEvent::Finished { t_s, reason } => {
+                let v = json!({"event": "detection", "kind": "finished", "t_s": t_s, "reason": reason.as_str()});
+                self.record(Topic::Events, t_s, &v);
+                self.publish(Stream::Detections, 0, &v, true);
+                self.end_trial(TrialEnd::Tracker(reason));
+                let seq = self.seq();
+                self.motion_seq = seq;
+                self.send(ControlCommand::Hold { seq }, Purpose::TrackerHold, None);
+                self.set_state(OpState::Done);
+                return;
+            }
+        };
+        let t = v["t_s"].as_f64().unwrap_or(0.0);
+        self.record(Topic::Events, t, &v);
+        self.publish(Stream::Detections, 0, &v, durable);
+    }
+
+    // ----- periodic work -----
+}
