@@ -459,23 +459,32 @@ impl BeatSlide {
 
     // ---- seeding ----
 
-    fn step_marking(&mut self, input: &TrackerInput<'_>, since_s: Option<f64>, window_s: f64) {
+    /// A search at rest (a mark or a search after a loss): `since_s`, when the sensor came to
+    /// rest, is restarted whenever it moves; the window's start once `window_s` of rest is
+    /// in and the event queue has room for the analysis.
+    fn rest_window(
+        &self,
+        input: &TrackerInput<'_>,
+        since_s: &mut Option<f64>,
+        window_s: f64,
+    ) -> Option<f64> {
         let t = input.frame.t_s;
         if !input.settled || !input.sensor.is_finite() {
-            self.state = State::Marking {
-                since_s: None,
-                window_s,
-            };
-            return;
+            *since_s = None;
+            return None;
         }
-        let since = since_s.unwrap_or(t);
-        self.state = State::Marking {
-            since_s: Some(since),
-            window_s,
+        let since = *since_s.get_or_insert(t);
+        (t - since + 1e-9 >= window_s && self.events.has_room_for(EVENTS_PER_ANALYSIS))
+            .then_some(since)
+    }
+
+    fn step_marking(&mut self, input: &TrackerInput<'_>, mut since_s: Option<f64>, window_s: f64) {
+        let t = input.frame.t_s;
+        let ready = self.rest_window(input, &mut since_s, window_s);
+        self.state = State::Marking { since_s, window_s };
+        let Some(since) = ready else {
+            return;
         };
-        if t - since + 1e-9 < window_s || !self.events.has_room_for(EVENTS_PER_ANALYSIS) {
-            return;
-        }
         match self.search_at_rest(since) {
             Ok((found, fit, sensor)) => {
                 self.learn_pulse(&found, &fit, t - since, t);

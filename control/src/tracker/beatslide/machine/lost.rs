@@ -21,27 +21,15 @@ impl BeatSlide {
     pub(super) fn step_searching(
         &mut self,
         input: &TrackerInput<'_>,
-        since_s: Option<f64>,
+        mut since_s: Option<f64>,
         attempt: usize,
     ) {
         let t = input.frame.t_s;
-        if !input.settled || !input.sensor.is_finite() {
-            self.state = State::Searching {
-                since_s: None,
-                attempt,
-            };
+        let ready = self.rest_window(input, &mut since_s, self.params.search_window_s);
+        self.state = State::Searching { since_s, attempt };
+        let Some(since) = ready else {
             return;
-        }
-        let since = since_s.unwrap_or(t);
-        self.state = State::Searching {
-            since_s: Some(since),
-            attempt,
         };
-        if t - since + 1e-9 < self.params.search_window_s
-            || !self.events.has_room_for(EVENTS_PER_ANALYSIS)
-        {
-            return;
-        }
         let found = self.search_at_rest(since).and_then(|(found, fit, sensor)| {
             // Re-finding the artery needs it on the array, not at its edge.
             if !(fit.element >= -0.5 && fit.element <= crate::types::ELEMENTS as f64 - 0.5)
