@@ -4,7 +4,7 @@
 //! peak top von Mises at t = 0.425 s for the convergence table.
 //!
 //! cargo bench -p pulsetrack-sim --bench fem_seed001 -- [--refine 0,1,2,3] [--reps 5]
-//!     [--size-scale S] [--ordering node|dof] [--export DIR]   (DIR/k.mtx and DIR/f.txt for scripts/fem_superlu.py,
+//!     [--size-scale S] [--ordering node|dof|nd] [--export DIR]   (DIR/k.mtx and DIR/f.txt for scripts/fem_superlu.py,
 //!     finest level)
 
 use std::io::Write;
@@ -13,7 +13,7 @@ use std::time::Instant;
 use pulsetrack_sim::fem::linear::LinearModel;
 use pulsetrack_sim::fem::recovery::von_mises_of;
 use pulsetrack_sim::fem::run::{build_mesh, supports};
-use pulsetrack_sim::fem::sparse::Ordering;
+use pulsetrack_sim::fem::sparse::{Ordering, factor_flops};
 use pulsetrack_sim::fem::study::shipped;
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -39,8 +39,9 @@ fn main() {
     let ordering = match get("--ordering").as_deref() {
         None | Some("node") => Ordering::NodeAmd,
         Some("dof") => Ordering::DofAmd,
+        Some("nd") => Ordering::NodeNd,
         Some(other) => {
-            eprintln!("--ordering {other}: expected node or dof");
+            eprintln!("--ordering {other}: expected node, dof or nd");
             std::process::exit(2);
         }
     };
@@ -52,7 +53,7 @@ fn main() {
     }
     let p_sys = model.pressure_at(0.425);
     println!(
-        "{:>6} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10} {:>8}",
+        "{:>6} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10} {:>8} {:>7}",
         "refine",
         "dofs",
         "mesh s",
@@ -64,13 +65,15 @@ fn main() {
         "recover",
         "total s",
         "peak kPa",
-        "L nnz M"
+        "L nnz M",
+        "GFlop"
     );
     for &level in &levels {
         let mut rows: Vec<[f64; 8]> = Vec::new();
         let mut peak = f64::NAN;
         let mut dofs = 0;
         let mut l_nnz = 0;
+        let mut flops = 0.0;
         for _ in 0..reps {
             let t0 = Instant::now();
             let mesh = build_mesh(&model, level).expect("mesh");
@@ -79,6 +82,7 @@ fn main() {
                 LinearModel::with_ordering(&mesh, &model.materials(), model.analysis, ordering)
                     .expect("assemble");
             l_nnz = lm.symbolic.len_val();
+            flops = factor_flops(&lm.symbolic);
             let (fixed, pres) = supports(&mesh, &model);
             let t1 = Instant::now();
             let c = lm.factor(&fixed).expect("factor");
@@ -123,7 +127,7 @@ fn main() {
         }
         let col = |i: usize| median(rows.iter().map(|r| r[i]).collect());
         println!(
-            "{:>6} {:>9} {:>8.3} {:>8.3} {:>9.3} {:>9.3} {:>9.3} {:>8.3} {:>8.3} {:>9.3} {:>10.4} {:>8.2}",
+            "{:>6} {:>9} {:>8.3} {:>8.3} {:>9.3} {:>9.3} {:>9.3} {:>8.3} {:>8.3} {:>9.3} {:>10.4} {:>8.2} {:>7.2}",
             level,
             dofs,
             col(0),
@@ -135,7 +139,8 @@ fn main() {
             col(6),
             col(7),
             peak * 1e-3,
-            l_nnz as f64 * 1e-6
+            l_nnz as f64 * 1e-6,
+            flops * 1e-9
         );
     }
 }

@@ -50,6 +50,9 @@ pub enum Ordering {
     NodeAmd,
     /// Approximate minimum degree on the DOF graph (faer's built-in).
     DofAmd,
+    /// Multilevel nested dissection on the node graph ([`super::nested_dissection`]), each
+    /// node's two DOFs kept adjacent.
+    NodeNd,
 }
 
 /// Lower-triangle CSC pattern of a Q4 mesh with 2 DOFs per node (dof = 2 node + component),
@@ -344,8 +347,18 @@ impl Pattern {
                 SymmetricOrdering::Amd,
                 CholeskySymbolicParams::default(),
             ),
-            Ordering::NodeAmd => {
-                let (fwd, inv) = self.node_amd_dof_permutation().map_err(err)?;
+            Ordering::NodeAmd | Ordering::NodeNd => {
+                let t_probe = std::time::Instant::now();
+                let node_order = if ordering == Ordering::NodeNd {
+                    super::nested_dissection::order(self.n / 2, &self.node_ptr, &self.node_idx)
+                        .map_err(|e| SolveError::Factor(e.to_string()))?
+                } else {
+                    self.node_amd_order().map_err(err)?
+                };
+                let (fwd, inv) = dof_permutation(&node_order);
+                if std::env::var("ND_PROBE").is_ok() {
+                    eprintln!("ordering {:.3} s", t_probe.elapsed().as_secs_f64());
+                }
                 let perm = PermRef::new_checked(&fwd, &inv, self.n);
                 factorize_symbolic_cholesky(
                     self.symbolic.as_ref(),
@@ -359,10 +372,8 @@ impl Pattern {
         .map_err(err)
     }
 
-    /// AMD on the node graph, expanded so that node k of the ordering becomes DOFs 2k, 2k+1.
-    fn node_amd_dof_permutation(
-        &self,
-    ) -> Result<(Vec<usize>, Vec<usize>), faer::sparse::FaerError> {
+    /// AMD on the node graph: `order[k]` is the node eliminated k-th.
+    fn node_amd_order(&self) -> Result<Vec<usize>, faer::sparse::FaerError> {
         let nn = self.n / 2;
         let graph =
             SymbolicSparseColMatRef::new_checked(nn, nn, &self.node_ptr, None, &self.node_idx);
@@ -377,16 +388,43 @@ impl Pattern {
             amd::Control::default(),
             MemStack::new(&mut mem),
         )?;
-        let mut dof_fwd = Vec::with_capacity(self.n);
-        for &a in &fwd {
-            dof_fwd.push(2 * a);
-            dof_fwd.push(2 * a + 1);
+        Ok(fwd)
+    }
+}
+
+/// A node elimination order expanded to DOFs (node k of the order becomes DOFs 2k, 2k+1):
+/// the forward and inverse permutations.
+fn dof_permutation(node_order: &[usize]) -> (Vec<usize>, Vec<usize>) {
+    let mut dof_fwd = Vec::with_capacity(2 * node_order.len());
+    for &a in node_order {
+        dof_fwd.push(2 * a);
+        dof_fwd.push(2 * a + 1);
+    }
+    let mut dof_inv = vec![0usize; dof_fwd.len()];
+    for (k, &d) in dof_fwd.iter().enumerate() {
+        dof_inv[d] = k;
+    }
+    (dof_fwd, dof_inv)
+}
+
+/// Multiply-adds of the numeric factorization, sum over L's columns of their squared counts
+/// (what an ordering should minimize; for the benchmark).
+pub fn factor_flops(symbolic: &Symbolic) -> f64 {
+    use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Supernodal(sn) => (0..sn.n_supernodes())
+            .map(|s| {
+                let w = sn.supernode_end()[s] - sn.supernode_begin()[s];
+                let below = sn.col_ptr_for_row_idx()[s + 1] - sn.col_ptr_for_row_idx()[s];
+                (0..w).map(|k| ((w - k + below) as f64).powi(2)).sum::<f64>()
+            })
+            .sum(),
+        SymbolicCholeskyRaw::Simplicial(sm) => {
+            let p = sm.col_ptr();
+            (0..sm.ncols())
+                .map(|j| ((p[j + 1] - p[j]) as f64).powi(2))
+                .sum()
         }
-        let mut dof_inv = vec![0usize; self.n];
-        for (k, &d) in dof_fwd.iter().enumerate() {
-            dof_inv[d] = k;
-        }
-        Ok((dof_fwd, dof_inv))
     }
 }
 
