@@ -14,8 +14,7 @@ use faer::sparse::linalg::amd;
 use super::vertex_separator::{Graph, PART_A, PART_B, SEPARATOR, vertex_separator};
 
 /// Pieces this small (or smaller) are ordered by minimum degree instead of being split.
-pub const LEAF_NODES: usize = 256;
-fn leaf_nodes() -> usize { std::env::var("ND_LEAF").ok().and_then(|s| s.parse().ok()).unwrap_or(LEAF_NODES) }
+pub const LEAF_NODES: usize = 8000;
 /// Halves larger than this are ordered in parallel.
 const PARALLEL_NODES: usize = 4096;
 /// Largest halo joined into a clique for the leaves' minimum degree.
@@ -39,12 +38,22 @@ pub enum OrderingError {
 /// columns (`col_ptr` of length n + 1, `row_idx`; either triangle or both, diagonal and
 /// repeats ignored): `order[k]` is the vertex eliminated k-th.
 pub fn order(n: usize, col_ptr: &[usize], row_idx: &[usize]) -> Result<Vec<usize>, OrderingError> {
-    let tp = std::time::Instant::now();
+    order_with_leaves(n, col_ptr, row_idx, LEAF_NODES)
+}
+
+/// [`order`] splitting pieces down to `leaf_nodes` vertices (at least 2) instead of
+/// [`LEAF_NODES`].
+pub fn order_with_leaves(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    leaf_nodes: usize,
+) -> Result<Vec<usize>, OrderingError> {
     let g = symmetric_graph(n, col_ptr, row_idx)?;
-    if std::env::var("ND_PROBE").is_ok() { eprintln!("graph {:.4}", tp.elapsed().as_secs_f64()); }
     let ids: Vec<u32> = (0..n as u32).collect();
-    let mut out = dissect(&g, None, ids)?;
-    Ok(out.drain(..).map(|v| v as usize).collect())
+    let leaf = leaf_nodes.max(2);
+    let out = dissect(&g, None, ids, leaf)?;
+    Ok(out.into_iter().map(|v| v as usize).collect())
 }
 
 /// A + Aᵀ without the diagonal, rows sorted and unique, unit weights.
@@ -116,60 +125,87 @@ fn symmetric_graph(n: usize, col_ptr: &[usize], row_idx: &[usize]) -> Result<Gra
     })
 }
 
-/// The order of graph `piece` (`top` itself when `None`), whose vertex v is `ids[v]` in `top`.
-fn dissect(top: &Graph, piece: Option<Graph>, ids: Vec<u32>) -> Result<Vec<u32>, OrderingError> {
+/// The order of graph `piece` (`top` itself when `None`), whose vertex v is `ids[v]` in `top`;
+/// pieces of at most `leaf` vertices are not split.
+fn dissect(
+    top: &Graph,
+    piece: Option<Graph>,
+    ids: Vec<u32>,
+    leaf: usize,
+) -> Result<Vec<u32>, OrderingError> {
     let g = piece.as_ref().unwrap_or(top);
     let n = g.n();
-    if n <= leaf_nodes() {
+    if n <= leaf {
         return minimum_degree(top, &ids);
     }
-    let (count, component) = components(g);
+    let big = n > PARALLEL_NODES;
+    // The components are counted beside the separator search (on a connected graph, the usual
+    // case, the search is not wasted).
+    let ((count, component), part) = if big {
+        rayon::join(|| components(g), || vertex_separator(g, 0))
+    } else {
+        let c = components(g);
+        let part = if c.0 == 1 {
+            vertex_separator(g, 0)
+        } else {
+            Vec::new()
+        };
+        (c, part)
+    };
     if count > 1 {
         // Independent pieces: each large one dissected, the small ones together by AMD.
         let mut size = vec![0usize; count];
         for &c in &component {
             size[c as usize] += 1;
         }
-        let mut small = vec![false; n];
+        let small: Vec<bool> = component
+            .iter()
+            .map(|&c| size[c as usize] <= leaf)
+            .collect();
         let mut pieces: Vec<(Graph, Vec<u32>)> = Vec::new();
         for c in 0..count {
-            if size[c] > leaf_nodes() {
+            if size[c] > leaf {
                 let keep: Vec<bool> = component.iter().map(|&x| x as usize == c).collect();
                 pieces.push(induced(g, &ids, &keep));
             }
         }
-        for v in 0..n {
-            small[v] = size[component[v] as usize] <= leaf_nodes();
-        }
         let mut out = Vec::with_capacity(n);
         if small.iter().any(|&s| s) {
-            let (_, sids) = induced(g, &ids, &small);
-            out.extend(minimum_degree(top, &sids)?);
+            let (_, small_ids) = induced(g, &ids, &small);
+            out.extend(minimum_degree(top, &small_ids)?);
         }
         drop(piece);
         for (pg, pids) in pieces {
-            out.extend(dissect(top, Some(pg), pids)?);
+            out.extend(dissect(top, Some(pg), pids, leaf)?);
         }
         return Ok(out);
     }
-    let part = vertex_separator(g);
     let in_a: Vec<bool> = part.iter().map(|&p| p == PART_A).collect();
     let in_b: Vec<bool> = part.iter().map(|&p| p == PART_B).collect();
-    let separator: Vec<u32> = (0..n)
-        .filter(|&v| part[v] == SEPARATOR)
-        .map(|v| ids[v])
-        .collect();
     if !in_a.iter().any(|&x| x) || !in_b.iter().any(|&x| x) {
         // No useful split (a near-clique): minimum degree on the whole piece.
         return minimum_degree(top, &ids);
     }
-    let (ga, ida) = induced(g, &ids, &in_a);
-    let (gb, idb) = induced(g, &ids, &in_b);
-    drop(piece);
-    let (oa, ob) = if ga.n().min(gb.n()) > PARALLEL_NODES {
-        rayon::join(|| dissect(top, Some(ga), ida), || dissect(top, Some(gb), idb))
+    let separator: Vec<u32> = (0..n)
+        .filter(|&v| part[v] == SEPARATOR)
+        .map(|v| ids[v])
+        .collect();
+    let ((ga, ida), (gb, idb)) = if big {
+        rayon::join(|| induced(g, &ids, &in_a), || induced(g, &ids, &in_b))
     } else {
-        (dissect(top, Some(ga), ida), dissect(top, Some(gb), idb))
+        (induced(g, &ids, &in_a), induced(g, &ids, &in_b))
+    };
+    drop(piece);
+    let (oa, ob) = if big {
+        rayon::join(
+            || dissect(top, Some(ga), ida, leaf),
+            || dissect(top, Some(gb), idb, leaf),
+        )
+    } else {
+        (
+            dissect(top, Some(ga), ida, leaf),
+            dissect(top, Some(gb), idb, leaf),
+        )
     };
     let mut out = oa?;
     out.extend(ob?);
@@ -313,133 +349,180 @@ fn minimum_degree(top: &Graph, ids: &[u32]) -> Result<Vec<u32>, OrderingError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Upper-triangle pattern (with diagonal) of a k x k grid's 5-point graph.
-    fn grid(k: usize) -> (usize, Vec<usize>, Vec<usize>) {
-        let n = k * k;
-        let mut ptr = vec![0];
-        let mut idx = Vec::new();
-        for v in 0..n {
-            idx.push(v);
-            if v % k + 1 < k {
-                idx.push(v + 1);
-            }
-            if v + k < n {
-                idx.push(v + k);
-            }
-            ptr.push(idx.len());
-        }
-        (n, ptr, idx)
-    }
-
-    fn is_permutation(order: &[usize], n: usize) -> bool {
-        let mut seen = vec![false; n];
-        order.len() == n && order.iter().all(|&v| v < n && !std::mem::replace(&mut seen[v], true))
-    }
-
-    #[test]
-    fn grid_order_is_a_permutation() {
-        let (n, p, i) = grid(100);
-        let o = order(n, &p, &i).unwrap();
-        assert!(is_permutation(&o, n));
-    }
-}
-
-#[cfg(test)]
-mod probe {
-    use super::*;
-    use faer::sparse::linalg::cholesky::{CholeskySymbolicParams, SymmetricOrdering, factorize_symbolic_cholesky};
-    use faer::perm::PermRef;
-    use faer::sparse::SymbolicSparseColMatRef;
     use faer::Side;
+    use faer::perm::PermRef;
+    use faer::sparse::linalg::cholesky::{
+        CholeskySymbolicParams, SymmetricOrdering, factorize_symbolic_cholesky,
+    };
 
-    fn grid9(k: usize) -> (usize, Vec<usize>, Vec<usize>) {
-        let n = k * k;
+    /// Lower-triangle pattern (with diagonal) from an edge list.
+    fn pattern(n: usize, edges: &[(usize, usize)]) -> (Vec<usize>, Vec<usize>) {
+        let mut cols = vec![vec![]; n];
+        for v in 0..n {
+            cols[v].push(v);
+        }
+        for &(a, b) in edges {
+            cols[a.min(b)].push(a.max(b));
+        }
         let mut ptr = vec![0];
         let mut idx = Vec::new();
-        for v in 0..n {
-            let (r, c) = (v / k, v % k);
-            idx.push(v);
-            if c + 1 < k { idx.push(v + 1); }
-            if r + 1 < k {
-                if c > 0 { idx.push(v + k - 1); }
-                idx.push(v + k);
-                if c + 1 < k { idx.push(v + k + 1); }
-            }
+        for c in &mut cols {
+            c.sort_unstable();
+            c.dedup();
+            idx.extend_from_slice(c);
             ptr.push(idx.len());
         }
-        (n, ptr, idx)
+        (ptr, idx)
     }
 
-    fn nnz_l(n: usize, p: &[usize], i: &[usize], ord: Option<&[usize]>) -> usize {
+    /// The node graph of a k x k grid of Q4 elements' corners ((k+1)^2 would be the mesh; here
+    /// k x k nodes, each joined to its 8 neighbours, as in the FEM's node graph).
+    fn grid_edges(k: usize, offset: usize) -> Vec<(usize, usize)> {
+        let mut e = Vec::new();
+        for r in 0..k {
+            for c in 0..k {
+                let v = offset + r * k + c;
+                if c + 1 < k {
+                    e.push((v, v + 1));
+                }
+                if r + 1 < k {
+                    e.push((v, v + k));
+                    if c + 1 < k {
+                        e.push((v, v + k + 1));
+                    }
+                    if c > 0 {
+                        e.push((v, v + k - 1));
+                    }
+                }
+            }
+        }
+        e
+    }
+
+    fn assert_permutation(order: &[usize], n: usize) {
+        assert_eq!(order.len(), n);
+        let mut seen = vec![false; n];
+        for &v in order {
+            assert!(v < n && !seen[v], "vertex {v} repeated or out of range");
+            seen[v] = true;
+        }
+    }
+
+    /// Both the default leaves and small ones (deep recursion on small graphs).
+    fn check_permutation(n: usize, edges: &[(usize, usize)]) {
+        let (p, i) = pattern(n, edges);
+        assert_permutation(&order(n, &p, &i).unwrap(), n);
+        for leaf in [2, 16, 100] {
+            assert_permutation(&order_with_leaves(n, &p, &i, leaf).unwrap(), n);
+        }
+    }
+
+    /// Nonzeros of L and multiply-adds of the factorization.
+    fn fill(n: usize, p: &[usize], i: &[usize], order: Option<&[usize]>) -> (usize, f64) {
         let a = SymbolicSparseColMatRef::new_checked(n, n, p, None, i);
-        let so = match ord {
-            None => factorize_symbolic_cholesky(a, Side::Lower, SymmetricOrdering::Amd, CholeskySymbolicParams::default()),
+        let params = CholeskySymbolicParams::default();
+        let symbolic = match order {
+            None => factorize_symbolic_cholesky(a, Side::Lower, SymmetricOrdering::Amd, params),
             Some(o) => {
                 let mut inv = vec![0; n];
-                for (k, &v) in o.iter().enumerate() { inv[v] = k; }
+                for (k, &v) in o.iter().enumerate() {
+                    inv[v] = k;
+                }
                 let perm = PermRef::new_checked(o, &inv, n);
-                factorize_symbolic_cholesky(a, Side::Lower, SymmetricOrdering::Custom(perm), CholeskySymbolicParams::default())
+                factorize_symbolic_cholesky(a, Side::Lower, SymmetricOrdering::Custom(perm), params)
             }
         };
-        let so = std::sync::Arc::new(so.unwrap());
-        eprintln!("   flops {:.3e}", crate::fem::sparse::factor_flops(&so));
-        so.len_val()
-    }
-
-    fn geo(k: usize, r0: usize, r1: usize, c0: usize, c1: usize, out: &mut Vec<usize>) {
-        if (r1 - r0) * (c1 - c0) <= 64 {
-            for r in r0..r1 { for c in c0..c1 { out.push(r * k + c); } }
-            return;
-        }
-        if r1 - r0 >= c1 - c0 {
-            let m = (r0 + r1) / 2;
-            geo(k, r0, m, c0, c1, out); geo(k, m + 1, r1, c0, c1, out);
-            for c in c0..c1 { out.push(m * k + c); }
-        } else {
-            let m = (c0 + c1) / 2;
-            geo(k, r0, r1, c0, m, out); geo(k, r0, r1, m + 1, c1, out);
-            for r in r0..r1 { out.push(r * k + m); }
-        }
-    }
-
-    fn depth_stats(g: &Graph, depth: usize, stats: &mut Vec<(usize, usize, usize)>) {
-        if g.n() <= LEAF_NODES || depth > 6 { return; }
-        let part = vertex_separator(g);
-        if stats.len() <= depth { stats.push((0, 0, 0)); }
-        let s = part.iter().filter(|&&q| q == SEPARATOR).count();
-        let a = part.iter().filter(|&&q| q == PART_A).count();
-        let b = part.iter().filter(|&&q| q == PART_B).count();
-        stats[depth].0 += 1; stats[depth].1 += s; stats[depth].2 = stats[depth].2.max(a.max(b) * 100 / (a + b));
-        let ids: Vec<u32> = (0..g.n() as u32).collect();
-        let ina: Vec<bool> = part.iter().map(|&q| q == PART_A).collect();
-        let inb: Vec<bool> = part.iter().map(|&q| q == PART_B).collect();
-        depth_stats(&induced(g, &ids, &ina).0, depth + 1, stats);
-        depth_stats(&induced(g, &ids, &inb).0, depth + 1, stats);
+        let symbolic = std::sync::Arc::new(symbolic.unwrap());
+        (
+            symbolic.len_val(),
+            crate::fem::sparse::factor_flops(&symbolic),
+        )
     }
 
     #[test]
-    #[ignore]
-    fn print_grid() {
-        for k in [200usize] {
-            let (n, p, i) = grid9(k);
-            let mut o = Vec::new();
-            geo(k, 0, k, 0, k, &mut o);
-            eprintln!("geo nnz {}", nnz_l(n, &p, &i, Some(&o)));
-            let g = symmetric_graph(n, &p, &i).unwrap();
-            let mut st = Vec::new();
-            depth_stats(&g, 0, &mut st);
-            eprintln!("{st:?}");
+    fn every_kind_of_graph_gets_a_permutation_of_its_nodes() {
+        // A grid larger than the default leaf, so that it is dissected.
+        check_permutation(100 * 100, &grid_edges(100, 0));
+        // Two grids side by side, not connected, and a third of isolated nodes after them.
+        let mut two = grid_edges(40, 0);
+        two.extend(grid_edges(40, 1600));
+        check_permutation(3200, &two);
+        check_permutation(3200 + 500, &two);
+        check_permutation(1, &[]);
+        check_permutation(0, &[]);
+        let path: Vec<_> = (1..20_000).map(|v| (v - 1, v)).collect();
+        check_permutation(20_000, &path);
+        let star: Vec<_> = (1..20_000).map(|v| (0, v)).collect();
+        check_permutation(20_000, &star);
+        // A clique cannot be split: minimum degree takes it whole.
+        let clique: Vec<_> = (0..60)
+            .flat_map(|a| (a + 1..60).map(move |b| (a, b)))
+            .collect();
+        check_permutation(60, &clique);
+    }
+
+    #[test]
+    fn bad_patterns_are_refused() {
+        assert!(matches!(
+            order(3, &[0, 1], &[0]),
+            Err(OrderingError::ColumnPointers { .. })
+        ));
+        assert!(matches!(
+            order(2, &[0, 1, 2], &[0, 5]),
+            Err(OrderingError::RowOutOfRange { row: 5, .. })
+        ));
+        assert!(matches!(
+            order(2, &[0, 2, 1], &[0, 1]),
+            Err(OrderingError::BadPointer { col: 1, .. })
+        ));
+    }
+
+    #[test]
+    fn a_grid_is_split_by_a_short_balanced_vertex_separator() {
+        let k = 64;
+        let n = k * k;
+        let (p, i) = pattern(n, &grid_edges(k, 0));
+        let g = symmetric_graph(n, &p, &i).unwrap();
+        let part = vertex_separator(&g, 0);
+        for v in 0..n {
+            for &u in &g.adj[g.xadj[v]..g.xadj[v + 1]] {
+                let (a, b) = (part[v], part[u as usize]);
+                assert!(
+                    !(a == PART_A && b == PART_B || a == PART_B && b == PART_A),
+                    "edge {v}-{u} joins the two parts"
+                );
+            }
         }
-        for k in [200usize] {
-            let (n, p, i) = grid9(k);
-            let g = symmetric_graph(n, &p, &i).unwrap();
-            let part = vertex_separator(g);
-            let cnt = |x: u8| part.iter().filter(|&&q| q == x).count();
-            let t = std::time::Instant::now();
-            let o = order(n, &p, &i).unwrap();
-            let tnd = t.elapsed().as_secs_f64();
-            eprintln!("k {k}: sep {} A {} B {}  nnz nd {} amd {} t {tnd:.3}", cnt(SEPARATOR), cnt(PART_A), cnt(PART_B), nnz_l(n,&p,&i,Some(&o)), nnz_l(n,&p,&i,None));
-        }
+        let count = |side| part.iter().filter(|&&p| p == side).count();
+        let (a, b, s) = (count(PART_A), count(PART_B), count(SEPARATOR));
+        // A straight line of k nodes is the shortest separator (found here: exactly k, parts
+        // of 1984 and 2048 nodes); allow a quarter more, and parts within 40-60 %.
+        assert!(s >= k && s <= k + k / 4, "separator of {s} nodes");
+        assert!(a.min(b) as f64 >= 0.4 * n as f64, "parts {a} and {b}");
+        assert!(a + b + s == n);
+    }
+
+    #[test]
+    fn nested_dissection_fills_a_large_grid_within_a_few_percent_of_minimum_degree() {
+        let k = 200;
+        let n = k * k;
+        let (p, i) = pattern(n, &grid_edges(k, 0));
+        let (nd, nd_flops) = fill(n, &p, &i, Some(&order_with_leaves(n, &p, &i, 256).unwrap()));
+        let (amd, amd_flops) = fill(n, &p, &i, None);
+        // On this uniform grid minimum degree is hard to beat (found: 2.11 M nonzeros and
+        // 2.06e8 multiply-adds against AMD's 2.04 M and 1.93e8; a perfect geometric dissection
+        // gives 2.43 M). On the graded FEM mesh the same code saves 27 % of the operations
+        // (docs/BENCHMARKS.md). Bound both within 8 %.
+        assert!(
+            (nd as f64) < 1.08 * amd as f64,
+            "nested dissection {nd} vs minimum degree {amd} nonzeros"
+        );
+        assert!(
+            nd_flops < 1.08 * amd_flops,
+            "nested dissection {nd_flops:e} vs minimum degree {amd_flops:e} operations"
+        );
+        // And far below no ordering at all (the grid's bandwidth fills k^3 entries).
+        let natural: Vec<usize> = (0..n).collect();
+        assert!(nd < fill(n, &p, &i, Some(&natural)).0 / 2);
     }
 }

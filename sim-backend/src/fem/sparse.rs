@@ -20,6 +20,7 @@ use faer::{Conj, MatMut, Par, Side};
 use rayon::prelude::*;
 
 use super::mesh::Mesh;
+use super::nested_dissection::{self, LEAF_NODES};
 
 /// The symbolic factorization (ordering, elimination tree, supernodes), shared by every
 /// numeric factorization on one mesh.
@@ -338,38 +339,42 @@ impl Pattern {
     /// Symbolic Cholesky with a chosen ordering.
     pub fn symbolic_with(&self, ordering: Ordering) -> Result<Symbolic, SolveError> {
         let err = |e: faer::sparse::FaerError| SolveError::Factor(format!("{e:?}"));
-        // Approximate minimum degree: on these graded meshes it gave 23% less fill and a
-        // 25% faster factorization than a geometric nested dissection we tried (BENCHMARKS).
         match ordering {
             Ordering::DofAmd => factorize_symbolic_cholesky(
                 self.symbolic.as_ref(),
                 Side::Lower,
                 SymmetricOrdering::Amd,
                 CholeskySymbolicParams::default(),
-            ),
-            Ordering::NodeAmd | Ordering::NodeNd => {
-                let t_probe = std::time::Instant::now();
-                let node_order = if ordering == Ordering::NodeNd {
-                    super::nested_dissection::order(self.n / 2, &self.node_ptr, &self.node_idx)
-                        .map_err(|e| SolveError::Factor(e.to_string()))?
-                } else {
-                    self.node_amd_order().map_err(err)?
-                };
-                let (fwd, inv) = dof_permutation(&node_order);
-                if std::env::var("ND_PROBE").is_ok() {
-                    eprintln!("ordering {:.3} s", t_probe.elapsed().as_secs_f64());
-                }
-                let perm = PermRef::new_checked(&fwd, &inv, self.n);
-                factorize_symbolic_cholesky(
-                    self.symbolic.as_ref(),
-                    Side::Lower,
-                    SymmetricOrdering::Custom(perm),
-                    CholeskySymbolicParams::default(),
-                )
+            )
+            .map(Arc::new)
+            .map_err(err),
+            Ordering::NodeAmd => {
+                self.symbolic_from_node_order(&self.node_amd_order().map_err(err)?)
             }
+            Ordering::NodeNd => self.symbolic_from_node_order(&self.node_nd_order(LEAF_NODES)?),
         }
+    }
+
+    /// Symbolic Cholesky for a node elimination order (`order[k]` the node eliminated k-th),
+    /// each node's two DOFs kept adjacent.
+    pub fn symbolic_from_node_order(&self, node_order: &[usize]) -> Result<Symbolic, SolveError> {
+        let (fwd, inv) = dof_permutation(node_order);
+        let perm = PermRef::new_checked(&fwd, &inv, self.n);
+        factorize_symbolic_cholesky(
+            self.symbolic.as_ref(),
+            Side::Lower,
+            SymmetricOrdering::Custom(perm),
+            CholeskySymbolicParams::default(),
+        )
         .map(Arc::new)
-        .map_err(err)
+        .map_err(|e| SolveError::Factor(format!("{e:?}")))
+    }
+
+    /// Nested dissection of the node graph, pieces of at most `leaf_nodes` ordered by minimum
+    /// degree.
+    pub fn node_nd_order(&self, leaf_nodes: usize) -> Result<Vec<usize>, SolveError> {
+        nested_dissection::order_with_leaves(self.n / 2, &self.node_ptr, &self.node_idx, leaf_nodes)
+            .map_err(|e| SolveError::Factor(e.to_string()))
     }
 
     /// AMD on the node graph: `order[k]` is the node eliminated k-th.
@@ -416,7 +421,9 @@ pub fn factor_flops(symbolic: &Symbolic) -> f64 {
             .map(|s| {
                 let w = sn.supernode_end()[s] - sn.supernode_begin()[s];
                 let below = sn.col_ptr_for_row_idx()[s + 1] - sn.col_ptr_for_row_idx()[s];
-                (0..w).map(|k| ((w - k + below) as f64).powi(2)).sum::<f64>()
+                (0..w)
+                    .map(|k| ((w - k + below) as f64).powi(2))
+                    .sum::<f64>()
             })
             .sum(),
         SymbolicCholeskyRaw::Simplicial(sm) => {
@@ -656,7 +663,7 @@ mod tests {
     }
 
     #[test]
-    fn node_and_dof_orderings_solve_the_same_system() {
+    fn node_dof_and_nested_dissection_orderings_solve_the_same_system() {
         use crate::fem::linear::LinearModel;
         use crate::fem::material::{Analysis, Material};
         let m = artery_mesh();
@@ -675,10 +682,23 @@ mod tests {
         };
         let (u_node, fill_node) = solve(Ordering::NodeAmd);
         let (u_dof, fill_dof) = solve(Ordering::DofAmd);
+        let (u_nd, _) = solve(Ordering::NodeNd);
+        // This mesh is smaller than one nested dissection leaf: also dissect it down to
+        // pieces of 16 nodes, so that the separators really are ordered last.
+        let lm = LinearModel::new(&m, &mats, Analysis::PlaneStress).unwrap();
+        let order = lm.pattern.node_nd_order(16).unwrap();
+        assert!(m.nodes.len() > 10 * 16, "{} nodes", m.nodes.len());
+        let symbolic = lm.pattern.symbolic_from_node_order(&order).unwrap();
+        let u_deep = Constrained::new(&lm.pattern, &symbolic, &lm.values, &fixed)
+            .unwrap()
+            .solve(&force, &zeros)
+            .unwrap();
         let scale = u_dof.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         assert!(scale > 0.0);
-        for (a, b) in u_node.iter().zip(&u_dof) {
-            assert!((a - b).abs() < 1e-9 * scale);
+        for u in [&u_node, &u_nd, &u_deep] {
+            for (a, b) in u.iter().zip(&u_dof) {
+                assert!((a - b).abs() < 1e-9 * scale);
+            }
         }
         // Ordering nodes loses nothing against ordering DOFs (AMD finds the 2x2 blocks).
         assert!(
