@@ -153,18 +153,14 @@ fn dissect(
         return minimum_degree(top, &ids);
     }
     let big = n > PARALLEL_NODES;
-    // The components are counted beside the separator search (on a connected graph, the usual
-    // case, the search is not wasted).
-    let ((count, component), part) = if big {
-        rayon::join(|| components(g), || vertex_separator(g, 0))
-    } else {
-        let c = components(g);
-        let part = if c.0 == 1 {
-            vertex_separator(g, 0)
-        } else {
-            Vec::new()
-        };
-        (c, part)
+    // Components are split apart once, on the whole graph, with the separator search running
+    // beside the count (a disconnected graph discards it). A piece that a separator leaves
+    // disconnected is bisected along its components by the separator search itself (a cut of
+    // zero), which saves a pass over every piece.
+    let ((count, component), part) = match (&piece, big) {
+        (None, true) => rayon::join(|| components(g), || vertex_separator(g, 0)),
+        (None, false) => (components(g), Vec::new()),
+        (Some(_), _) => ((1, Vec::new()), Vec::new()),
     };
     if count > 1 {
         // Independent pieces: each large one dissected, the small ones together by AMD.
@@ -194,6 +190,11 @@ fn dissect(
         }
         return Ok(out);
     }
+    let part = if part.is_empty() {
+        vertex_separator(g, 0)
+    } else {
+        part
+    };
     let in_a: Vec<bool> = part.iter().map(|&p| p == PART_A).collect();
     let in_b: Vec<bool> = part.iter().map(|&p| p == PART_B).collect();
     if !in_a.iter().any(|&x| x) || !in_b.iter().any(|&x| x) {
@@ -301,26 +302,63 @@ fn minimum_degree(top: &Graph, ids: &[u32]) -> Result<Vec<u32>, OrderingError> {
     if m <= 1 {
         return Ok(ids.to_vec());
     }
+    let neighbours = |v: u32| &top.adj[top.xadj[v as usize]..top.xadj[v as usize + 1]];
+    // Local numbers (piece 0..m, halo m..): a direct table over the range of the piece and its
+    // neighbours when that range is compact (pieces of a mesh), binary searches otherwise.
+    let (mut lo, mut hi) = (ids[0], ids[m - 1]);
+    for &v in ids {
+        for &u in neighbours(v) {
+            lo = lo.min(u);
+            hi = hi.max(u);
+        }
+    }
+    let (lo, hi) = (lo as usize, hi as usize);
+    let mut table: Vec<u32> = if hi - lo < 64 * m {
+        let mut t = vec![u32::MAX; hi - lo + 1];
+        for (i, &v) in ids.iter().enumerate() {
+            t[v as usize - lo] = i as u32;
+        }
+        t
+    } else {
+        Vec::new()
+    };
+    let in_piece = |table: &[u32], u: u32| {
+        if table.is_empty() {
+            ids.binary_search(&u).is_ok()
+        } else {
+            (table[u as usize - lo] as usize) < m
+        }
+    };
     let mut halo: Vec<u32> = Vec::new();
     for &v in ids {
-        let v = v as usize;
-        for &u in &top.adj[top.xadj[v]..top.xadj[v + 1]] {
-            if ids.binary_search(&u).is_err() {
+        for &u in neighbours(v) {
+            if !in_piece(&table, u) {
                 halo.push(u);
             }
         }
     }
     halo.sort_unstable();
     halo.dedup();
-    // A large halo's clique would cost more than it is worth: keep the nearest part only.
+    if !table.is_empty() {
+        for (h, &u) in halo.iter().enumerate() {
+            table[u as usize - lo] = (m + h) as u32;
+        }
+    }
+    let local = |u: u32| -> Option<usize> {
+        if table.is_empty() {
+            match ids.binary_search(&u) {
+                Ok(j) => Some(j),
+                Err(_) => halo.binary_search(&u).ok().map(|h| m + h),
+            }
+        } else {
+            Some(table[u as usize - lo] as usize).filter(|&j| j != u32::MAX as usize)
+        }
+    };
+    // A large halo's clique would cost more than it is worth: then the halo stays as it is.
     let clique = halo.len() <= HALO_CLIQUE_MAX;
     let n = m + halo.len();
     // Upper triangle (row < column) in compressed columns: the piece's own edges once, each
     // piece-halo edge in the halo vertex's column, and the halo clique.
-    let local = |u: u32| match ids.binary_search(&u) {
-        Ok(j) => Some(j),
-        Err(_) => halo.binary_search(&u).ok().map(|h| m + h),
-    };
     let mut halo_rows: Vec<Vec<usize>> = vec![Vec::new(); halo.len()];
     let mut col_ptr = Vec::with_capacity(n + 1);
     let mut row_idx = Vec::new();
@@ -496,7 +534,10 @@ mod tests {
             full_idx.extend_from_slice(c);
             full_ptr.push(full_idx.len());
         }
-        assert_eq!(order_with_leaves(n, &full_ptr, &full_idx, 50).unwrap(), want);
+        assert_eq!(
+            order_with_leaves(n, &full_ptr, &full_idx, 50).unwrap(),
+            want
+        );
     }
 
     #[test]
