@@ -3,9 +3,10 @@
 //!
 //! Recursively: find a small balanced vertex separator ([`super::vertex_separator`]), order
 //! part A, then part B, then the separator last, so that eliminating A never fills B and the
-//! dense fronts are the separators. Below [`LEAF_NODES`] vertices, and for the union of small
-//! connected components, the pieces are ordered by approximate minimum degree (faer's AMD).
-//! The two halves of each split are ordered in parallel. Deterministic.
+//! dense fronts are the separators. Pieces of at most [`LEAF_NODES`] vertices, and the union of
+//! a graph's small connected components, are ordered by approximate minimum degree (faer's AMD)
+//! together with their halo, the separator vertices around them, so that their boundary comes
+//! last. The two halves of each split are ordered in parallel. Deterministic.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::SymbolicSparseColMatRef;
@@ -579,6 +580,22 @@ mod tests {
         assert!(s >= k && s <= k + k / 4, "separator of {s} nodes");
         assert!(a.min(b) as f64 >= 0.4 * n as f64, "parts {a} and {b}");
         assert!(a + b + s == n);
+    }
+
+    #[test]
+    fn two_disconnected_grids_are_separated_by_nothing() {
+        // What a piece left disconnected by its parent's separator relies on.
+        let k = 40;
+        let mut edges = grid_edges(k, 0);
+        edges.extend(grid_edges(k, k * k));
+        let n = 2 * k * k;
+        let (p, i) = pattern(n, &edges);
+        let part = vertex_separator(&symmetric_graph(n, &p, &i).unwrap(), 0);
+        assert!(part.iter().all(|&q| q != SEPARATOR));
+        // Each grid lies wholly in one part.
+        assert!(part[..k * k].iter().all(|&q| q == part[0]));
+        assert!(part[k * k..].iter().all(|&q| q == part[k * k]));
+        assert_ne!(part[0], part[k * k]);
     }
 
     #[test]
