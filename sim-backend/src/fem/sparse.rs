@@ -361,6 +361,17 @@ impl Pattern {
     /// Symbolic Cholesky for a node elimination order (`order[k]` the node eliminated k-th),
     /// each node's two DOFs kept adjacent.
     pub fn symbolic_from_node_order(&self, node_order: &[usize]) -> Result<Symbolic, SolveError> {
+        let mut seen = vec![false; self.n / 2];
+        if node_order.len() != seen.len()
+            || !node_order
+                .iter()
+                .all(|&a| a < seen.len() && !std::mem::replace(&mut seen[a], true))
+        {
+            return Err(SolveError::Factor(format!(
+                "the node order is not a permutation of the {} nodes",
+                seen.len()
+            )));
+        }
         let (fwd, inv) = dof_permutation(node_order);
         let perm = PermRef::new_checked(&fwd, &inv, self.n);
         factorize_symbolic_cholesky(
@@ -692,6 +703,10 @@ mod tests {
         let order = lm.pattern.node_nd_order(16).unwrap();
         assert!(m.nodes.len() > 10 * 16, "{} nodes", m.nodes.len());
         let symbolic = lm.pattern.symbolic_from_node_order(&order).unwrap();
+        let mut repeated = order.clone();
+        repeated[1] = repeated[0];
+        assert!(lm.pattern.symbolic_from_node_order(&repeated).is_err());
+        assert!(lm.pattern.symbolic_from_node_order(&order[1..]).is_err());
         let u_deep = Constrained::new(&lm.pattern, &symbolic, &lm.values, &fixed)
             .unwrap()
             .solve(&force, &zeros)
