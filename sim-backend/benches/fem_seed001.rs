@@ -5,7 +5,7 @@
 //! factorization's multiply-adds (GFlop).
 //!
 //! cargo bench -p pulsetrack-sim --bench fem_seed001 -- [--refine 0,1,2,3] [--reps 5]
-//!     [--size-scale S] [--ordering node|dof|nd] [--export DIR]   (DIR/k.mtx and DIR/f.txt for scripts/fem_superlu.py,
+//!     [--size-scale S] [--ordering split|node|dof|nd] (default split) [--export DIR]   (DIR/k.mtx and DIR/f.txt for scripts/fem_superlu.py,
 //!     finest level)
 
 use std::io::Write;
@@ -38,11 +38,13 @@ fn main() {
     let reps: usize = get("--reps").and_then(|s| s.parse().ok()).unwrap_or(5);
     let export = get("--export");
     let ordering = match get("--ordering").as_deref() {
-        None | Some("node") => Ordering::NodeAmd,
+        None => Ordering::default(),
+        Some("node") => Ordering::NodeAmd,
         Some("dof") => Ordering::DofAmd,
         Some("nd") => Ordering::NodeNd,
+        Some("split") => Ordering::SplitNd,
         Some(other) => {
-            eprintln!("--ordering {other}: expected node, dof or nd");
+            eprintln!("--ordering {other}: expected node, dof, nd or split");
             std::process::exit(2);
         }
     };

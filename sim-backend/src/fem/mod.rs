@@ -25,6 +25,7 @@ pub mod recovery;
 pub mod run;
 pub mod scene_validation;
 pub mod sparse;
+pub mod split_cholesky;
 pub mod study;
 pub mod tactile;
 pub mod vertex_separator;

@@ -196,22 +196,44 @@ fn dissect(
     } else {
         part
     };
+    match split(top, g, &ids, &part, leaf, big)? {
+        Some((oa, ob, separator)) => {
+            let mut out = oa;
+            out.extend(ob);
+            out.extend(separator);
+            Ok(out)
+        }
+        // No useful split (a near-clique): minimum degree on the whole piece.
+        None => minimum_degree(top, &ids),
+    }
+}
+
+/// The orders of part A and part B of a separator `part` of `g` (each dissected further), and
+/// the separator's vertices; `None` when either part is empty.
+type Split = (Vec<u32>, Vec<u32>, Vec<u32>);
+fn split(
+    top: &Graph,
+    g: &Graph,
+    ids: &[u32],
+    part: &[u8],
+    leaf: usize,
+    big: bool,
+) -> Result<Option<Split>, OrderingError> {
+    let n = g.n();
     let in_a: Vec<bool> = part.iter().map(|&p| p == PART_A).collect();
     let in_b: Vec<bool> = part.iter().map(|&p| p == PART_B).collect();
     if !in_a.iter().any(|&x| x) || !in_b.iter().any(|&x| x) {
-        // No useful split (a near-clique): minimum degree on the whole piece.
-        return minimum_degree(top, &ids);
+        return Ok(None);
     }
     let separator: Vec<u32> = (0..n)
         .filter(|&v| part[v] == SEPARATOR)
         .map(|v| ids[v])
         .collect();
     let ((ga, ida), (gb, idb)) = if big {
-        rayon::join(|| induced(g, &ids, &in_a), || induced(g, &ids, &in_b))
+        rayon::join(|| induced(g, ids, &in_a), || induced(g, ids, &in_b))
     } else {
-        (induced(g, &ids, &in_a), induced(g, &ids, &in_b))
+        (induced(g, ids, &in_a), induced(g, ids, &in_b))
     };
-    drop(piece);
     let (oa, ob) = if big {
         rayon::join(
             || dissect(top, Some(ga), ida, leaf),
@@ -223,10 +245,67 @@ fn dissect(
             dissect(top, Some(gb), idb, leaf),
         )
     };
-    let mut out = oa?;
-    out.extend(ob?);
-    out.extend(separator);
-    Ok(out)
+    Ok(Some((oa?, ob?, separator)))
+}
+
+/// A nested dissection order whose first split is reported: the order holds part A's
+/// vertices, then part B's, then the top separator's, and `parts` gives the sizes of A and
+/// B. `parts` is `None` (and the order a plain [`order`]) when the graph is disconnected or
+/// too small to split, or its best separator leaves a part empty.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TopSplit {
+    pub order: Vec<usize>,
+    pub parts: Option<[usize; 2]>,
+}
+
+/// [`order`] keeping the top-level split (for a factorization that eliminates the two parts
+/// independently and meets on the separator).
+pub fn order_split(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+) -> Result<TopSplit, OrderingError> {
+    order_split_with_leaves(n, col_ptr, row_idx, LEAF_NODES)
+}
+
+/// [`order_split`] with pieces of at most `leaf_nodes` vertices (at least 2) left unsplit.
+pub fn order_split_with_leaves(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    leaf_nodes: usize,
+) -> Result<TopSplit, OrderingError> {
+    let leaf = leaf_nodes.max(2);
+    let g = symmetric_graph(n, col_ptr, row_idx)?;
+    let plain = |g: &Graph| -> Result<TopSplit, OrderingError> {
+        let ids: Vec<u32> = (0..n as u32).collect();
+        let order = dissect(g, None, ids, leaf)?;
+        Ok(TopSplit {
+            order: order.into_iter().map(|v| v as usize).collect(),
+            parts: None,
+        })
+    };
+    if n <= leaf {
+        return plain(&g);
+    }
+    let ((count, _), part) = rayon::join(|| components(&g), || vertex_separator(&g, 0));
+    if count > 1 {
+        return plain(&g);
+    }
+    let ids: Vec<u32> = (0..n as u32).collect();
+    match split(&g, &g, &ids, &part, leaf, true)? {
+        Some((oa, ob, separator)) => {
+            let parts = Some([oa.len(), ob.len()]);
+            let order = oa
+                .into_iter()
+                .chain(ob)
+                .chain(separator)
+                .map(|v| v as usize)
+                .collect();
+            Ok(TopSplit { order, parts })
+        }
+        None => plain(&g),
+    }
 }
 
 /// Connected components: their count and each vertex's component.
@@ -485,10 +564,10 @@ mod tests {
                 factorize_symbolic_cholesky(a, Side::Lower, SymmetricOrdering::Custom(perm), params)
             }
         };
-        let symbolic = std::sync::Arc::new(symbolic.unwrap());
+        let symbolic = symbolic.unwrap();
         (
             symbolic.len_val(),
-            crate::fem::sparse::factor_flops(&symbolic),
+            crate::fem::split_cholesky::cholesky_flops(&symbolic),
         )
     }
 

@@ -21,10 +21,30 @@ use rayon::prelude::*;
 
 use super::mesh::Mesh;
 use super::nested_dissection::{self, LEAF_NODES};
+use super::split_cholesky::{SplitNumeric, SplitSymbolic, cholesky_flops};
 
 /// The symbolic factorization (ordering, elimination tree, supernodes), shared by every
 /// numeric factorization on one mesh.
-pub type Symbolic = Arc<SymbolicCholesky<usize>>;
+pub type Symbolic = Arc<SymbolicFactor>;
+
+/// One sparse Cholesky of K, or one split at the top separator into two halves factored side
+/// by side ([`SplitSymbolic`]).
+#[derive(Debug)]
+#[allow(clippy::large_enum_variant)] // one per mesh, behind an Arc
+pub enum SymbolicFactor {
+    Whole(SymbolicCholesky<usize>),
+    Split(SplitSymbolic),
+}
+
+impl SymbolicFactor {
+    /// Nonzeros stored for the factor.
+    pub fn len_val(&self) -> usize {
+        match self {
+            Self::Whole(s) => s.len_val(),
+            Self::Split(s) => s.len_val(),
+        }
+    }
+}
 
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum SolveError {
@@ -42,21 +62,23 @@ pub enum SolveError {
     NoConvergence(String),
 }
 
-/// How the fill-reducing ordering is computed (the benchmark compares them). On the seed-001
-/// artery at 328k DOFs nested dissection has 27% fewer operations than the default but costs
-/// as much more to compute as it saves (docs/BENCHMARKS.md): worth it when one symbolic
-/// factorization serves many numeric ones.
+/// How the fill-reducing ordering is computed (the benchmark compares them). The default,
+/// [`Ordering::SplitNd`], is the fastest on the seed-001 artery at 328k DOFs by a quarter
+/// (docs/BENCHMARKS.md); meshes within one dissection leaf fall back to [`Ordering::NodeAmd`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Ordering {
     /// Approximate minimum degree on the node graph (a quarter of the DOF graph's entries),
     /// each node's two DOFs kept adjacent: cheaper to order, and every node is a 2x2 block.
-    #[default]
     NodeAmd,
     /// Approximate minimum degree on the DOF graph (faer's built-in).
     DofAmd,
-    /// Multilevel nested dissection on the node graph ([`super::nested_dissection`]), each
-    /// node's two DOFs kept adjacent.
+    /// Nested dissection of the node graph ([`nested_dissection`]): 27 % fewer operations than
+    /// AMD on the seed-001 artery, but as much more to compute as it saves.
     NodeNd,
+    /// Nested dissection, factored as two halves side by side (one per core) that meet on the
+    /// top separator ([`super::split_cholesky`]).
+    #[default]
+    SplitNd,
 }
 
 /// Lower-triangle CSC pattern of a Q4 mesh with 2 DOFs per node (dof = 2 node + component),
@@ -349,12 +371,39 @@ impl Pattern {
                 SymmetricOrdering::Amd,
                 CholeskySymbolicParams::default(),
             )
-            .map(Arc::new)
+            .map(|s| Arc::new(SymbolicFactor::Whole(s)))
             .map_err(err),
             Ordering::NodeAmd => {
                 self.symbolic_from_node_order(&self.node_amd_order().map_err(err)?)
             }
             Ordering::NodeNd => self.symbolic_from_node_order(&self.node_nd_order(LEAF_NODES)?),
+            Ordering::SplitNd => self.split_symbolic(),
+        }
+    }
+
+    /// Nested dissection split at its top separator; a mesh within one dissection leaf gets
+    /// one factor by AMD (as [`Ordering::NodeAmd`]), a disconnected one one factor by nested
+    /// dissection.
+    fn split_symbolic(&self) -> Result<Symbolic, SolveError> {
+        let nn = self.n / 2;
+        if nn <= LEAF_NODES {
+            return self.symbolic_with(Ordering::NodeAmd);
+        }
+        let split = nested_dissection::order_split(nn, &self.node_ptr, &self.node_idx)
+            .map_err(|e| SolveError::Factor(e.to_string()))?;
+        match split.parts {
+            Some([na, nb]) => {
+                let (dof_order, _) = dof_permutation(&split.order);
+                SplitSymbolic::new(
+                    self.n,
+                    &self.col_ptr,
+                    &self.row_idx,
+                    &dof_order,
+                    [2 * na, 2 * nb],
+                )
+                .map(|s| Arc::new(SymbolicFactor::Split(s)))
+            }
+            None => self.symbolic_from_node_order(&split.order),
         }
     }
 
@@ -380,7 +429,7 @@ impl Pattern {
             SymmetricOrdering::Custom(perm),
             CholeskySymbolicParams::default(),
         )
-        .map(Arc::new)
+        .map(|s| Arc::new(SymbolicFactor::Whole(s)))
         .map_err(|e| SolveError::Factor(format!("{e:?}")))
     }
 
@@ -429,24 +478,40 @@ fn dof_permutation(node_order: &[usize]) -> (Vec<usize>, Vec<usize>) {
 /// Multiply-adds of the numeric factorization, sum over L's columns of their squared counts
 /// (what an ordering should minimize; for the benchmark).
 pub fn factor_flops(symbolic: &Symbolic) -> f64 {
-    use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
-    match symbolic.raw() {
-        SymbolicCholeskyRaw::Supernodal(sn) => (0..sn.n_supernodes())
-            .map(|s| {
-                let w = sn.supernode_end()[s] - sn.supernode_begin()[s];
-                let below = sn.col_ptr_for_row_idx()[s + 1] - sn.col_ptr_for_row_idx()[s];
-                (0..w)
-                    .map(|k| ((w - k + below) as f64).powi(2))
-                    .sum::<f64>()
-            })
-            .sum(),
-        SymbolicCholeskyRaw::Simplicial(sm) => {
-            let p = sm.col_ptr();
-            (0..sm.ncols())
-                .map(|j| ((p[j + 1] - p[j]) as f64).powi(2))
-                .sum()
-        }
+    match &**symbolic {
+        SymbolicFactor::Whole(s) => cholesky_flops(s),
+        SymbolicFactor::Split(s) => s.flops(),
     }
+}
+
+/// Numeric Cholesky of the constrained values `mv` as one factor.
+fn factor_whole(
+    pattern: &Pattern,
+    symbolic: &SymbolicCholesky<usize>,
+    mv: &[f64],
+) -> Result<Vec<f64>, SolveError> {
+    let mat = SparseColMatRef::new(pattern.symbolic.as_ref(), mv);
+    let mut factor = Vec::new();
+    factor
+        .try_reserve_exact(symbolic.len_val())
+        .map_err(|_| SolveError::Factor("out of memory for the factor".into()))?;
+    factor.resize(symbolic.len_val(), 0.0);
+    let par = Par::Seq;
+    let mut mem =
+        MemBuffer::try_new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()))
+            .map_err(|_| SolveError::Factor("out of memory for the workspace".into()))?;
+    symbolic
+        .factorize_numeric_llt::<f64>(
+            &mut factor,
+            mat,
+            Side::Lower,
+            LltRegularization::default(),
+            par,
+            MemStack::new(&mut mem),
+            Default::default(),
+        )
+        .map_err(|_| SolveError::NotPositiveDefinite)?;
+    Ok(factor)
 }
 
 /// A factorization of K with a set of DOFs prescribed, ready to solve load cases.
@@ -459,7 +524,13 @@ pub struct Constrained<'p> {
     /// Diagonal kept on the fixed DOFs (scale of the identity rows).
     diag: Vec<f64>,
     symbolic: Symbolic,
-    factor: Vec<f64>,
+    factor: Factor,
+}
+
+#[derive(Debug)]
+enum Factor {
+    Whole(Vec<f64>),
+    Split(SplitNumeric),
 }
 
 impl<'p> Constrained<'p> {
@@ -486,28 +557,10 @@ impl<'p> Constrained<'p> {
                 }
             }
         }
-        let mat = SparseColMatRef::new(pattern.symbolic.as_ref(), &mv);
-        let mut factor = Vec::new();
-        factor
-            .try_reserve_exact(symbolic.len_val())
-            .map_err(|_| SolveError::Factor("out of memory for the factor".into()))?;
-        factor.resize(symbolic.len_val(), 0.0);
-        let par = Par::Seq;
-        let mut mem = MemBuffer::try_new(
-            symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
-        )
-        .map_err(|_| SolveError::Factor("out of memory for the workspace".into()))?;
-        symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut factor,
-                mat,
-                Side::Lower,
-                LltRegularization::default(),
-                par,
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .map_err(|_| SolveError::NotPositiveDefinite)?;
+        let factor = match &**symbolic {
+            SymbolicFactor::Whole(sym) => Factor::Whole(factor_whole(pattern, sym, &mv)?),
+            SymbolicFactor::Split(split) => Factor::Split(split.factor(&mv)?),
+        };
         Ok(Self {
             pattern,
             values,
@@ -558,15 +611,27 @@ impl<'p> Constrained<'p> {
                 }
             }
         }
-        let par = Par::Seq;
-        let mut mem = MemBuffer::try_new(self.symbolic.solve_in_place_scratch::<f64>(k, par))
-            .map_err(|_| SolveError::Factor("out of memory for the solve".into()))?;
-        LltRef::<'_, usize, f64>::new(&self.symbolic, &self.factor).solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut rhs, n, k),
-            par,
-            MemStack::new(&mut mem),
-        );
+        match (&*self.symbolic, &self.factor) {
+            (SymbolicFactor::Whole(sym), Factor::Whole(factor)) => {
+                let par = Par::Seq;
+                let mut mem = MemBuffer::try_new(sym.solve_in_place_scratch::<f64>(k, par))
+                    .map_err(|_| SolveError::Factor("out of memory for the solve".into()))?;
+                LltRef::<'_, usize, f64>::new(sym, factor).solve_in_place_with_conj(
+                    Conj::No,
+                    MatMut::from_column_major_slice_mut(&mut rhs, n, k),
+                    par,
+                    MemStack::new(&mut mem),
+                );
+            }
+            (SymbolicFactor::Split(split), Factor::Split(numeric)) => {
+                split.solve_in_place(numeric, &mut rhs, k);
+            }
+            _ => {
+                return Err(SolveError::Factor(
+                    "the factor does not match its symbolic".into(),
+                ));
+            }
+        }
         if rhs.iter().any(|v| !v.is_finite()) {
             return Err(SolveError::NonFinite);
         }
@@ -723,6 +788,86 @@ mod tests {
             fill_node as f64 <= 1.05 * fill_dof as f64,
             "{fill_node} vs {fill_dof}"
         );
+    }
+
+    #[test]
+    fn the_split_factorization_solves_the_same_system_with_prescribed_values() {
+        use crate::fem::linear::LinearModel;
+        use crate::fem::material::{Analysis, Material};
+        let m = artery_mesh();
+        let mats = [Material::new(15e3, 0.45), Material::new(600e3, 0.49)];
+        let lm = LinearModel::new(&m, &mats, Analysis::PlaneStrain).unwrap();
+        // Bottom fixed, the top pushed down by a prescribed displacement that varies along x,
+        // lumen pressure: two load cases, prescribed values in one of them.
+        let (mut fixed, mut pres) = (vec![false; m.dofs()], vec![0.0; m.dofs()]);
+        for &n in &m.bottom {
+            fixed[2 * n as usize] = true;
+            fixed[2 * n as usize + 1] = true;
+        }
+        for &n in &m.top {
+            fixed[2 * n as usize + 1] = true;
+            pres[2 * n as usize + 1] = -1e-4 * (1.0 + m.nodes[n as usize][0] / 0.04);
+        }
+        let force = m.lumen_pressure_forces(1e4);
+        let zeros = vec![0.0; m.dofs()];
+        let cases: [(&[f64], &[f64]); 2] = [(&zeros, &pres), (&force, &zeros)];
+        let whole = lm.factor(&fixed).unwrap().solve_many(&cases).unwrap();
+
+        // The mesh is smaller than a leaf: split it with small leaves.
+        let p = &lm.pattern;
+        let split =
+            nested_dissection::order_split_with_leaves(p.n / 2, &p.node_ptr, &p.node_idx, 16)
+                .unwrap();
+        let [na, nb] = split.parts.expect("a connected mesh of this size is split");
+        assert!(na > 0 && nb > 0 && na + nb < p.n / 2);
+        let (dof_order, _) = dof_permutation(&split.order);
+        let sym =
+            SplitSymbolic::new(p.n, &p.col_ptr, &p.row_idx, &dof_order, [2 * na, 2 * nb]).unwrap();
+        let symbolic: Symbolic = Arc::new(SymbolicFactor::Split(sym));
+        let parts = Constrained::new(p, &symbolic, &lm.values, &fixed)
+            .unwrap()
+            .solve_many(&cases)
+            .unwrap();
+        for (w, s) in whole.iter().zip(&parts) {
+            let scale = w.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            assert!(scale > 0.0);
+            for (a, b) in w.iter().zip(s) {
+                assert!((a - b).abs() < 1e-9 * scale, "{a} vs {b}");
+            }
+        }
+        // Prescribed values are met (to rounding: the row is the kept diagonal's).
+        for (i, &f) in fixed.iter().enumerate() {
+            if f {
+                assert!((parts[0][i] - pres[i]).abs() <= 1e-12 * 2e-4, "DOF {i}");
+            }
+        }
+
+        // A split whose "separator" does not separate is refused, as is a non-permutation.
+        let not_separating = SplitSymbolic::new(
+            p.n,
+            &p.col_ptr,
+            &p.row_idx,
+            &dof_order,
+            [2 * na + 2, 2 * nb - 2],
+        );
+        let err = |r: Result<SplitSymbolic, SolveError>| r.err().map(|e| e.to_string());
+        assert!(
+            err(not_separating).is_some_and(|e| e.contains("across the separator")),
+            "moving a node of B into A must couple A and B"
+        );
+        let mut repeated = dof_order.clone();
+        repeated[1] = repeated[0];
+        assert!(
+            err(SplitSymbolic::new(
+                p.n,
+                &p.col_ptr,
+                &p.row_idx,
+                &repeated,
+                [2 * na, 2 * nb]
+            ))
+            .is_some_and(|e| e.contains("permutation"))
+        );
+        assert!(SplitSymbolic::new(p.n, &p.col_ptr, &p.row_idx, &dof_order, [0, 2 * nb]).is_err());
     }
 
     #[test]
