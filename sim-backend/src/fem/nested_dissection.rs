@@ -662,6 +662,50 @@ mod tests {
     }
 
     #[test]
+    fn the_top_split_orders_part_a_then_part_b_then_a_true_separator() {
+        let k = 48;
+        let n = k * k;
+        let (p, i) = pattern(n, &grid_edges(k, 0));
+        let split = order_split_with_leaves(n, &p, &i, 100).unwrap();
+        assert_permutation(&split.order, n);
+        let [na, nb] = split
+            .parts
+            .expect("a connected grid above the leaf size is split");
+        let ns = n - na - nb;
+        assert!(
+            na.min(nb) as f64 >= 0.4 * n as f64 && ns <= k + k / 4,
+            "{na} {nb} {ns}"
+        );
+        let mut side = vec![0u8; n];
+        for (k, &v) in split.order.iter().enumerate() {
+            side[v] = if k < na {
+                1
+            } else if k < na + nb {
+                2
+            } else {
+                3
+            };
+        }
+        let g = symmetric_graph(n, &p, &i).unwrap();
+        for v in 0..n {
+            for &u in &g.adj[g.xadj[v]..g.xadj[v + 1]] {
+                assert!(
+                    side[v] + side[u as usize] != 3,
+                    "edge {v}-{u} joins A and B"
+                );
+            }
+        }
+        // Small or disconnected graphs are not split (the caller factors them whole).
+        assert_eq!(order_split_with_leaves(n, &p, &i, n).unwrap().parts, None);
+        let mut two = grid_edges(30, 0);
+        two.extend(grid_edges(30, 900));
+        let (p2, i2) = pattern(1800, &two);
+        let whole = order_split_with_leaves(1800, &p2, &i2, 100).unwrap();
+        assert_eq!(whole.parts, None);
+        assert_permutation(&whole.order, 1800);
+    }
+
+    #[test]
     fn two_disconnected_grids_are_separated_by_nothing() {
         // What a piece left disconnected by its parent's separator relies on.
         let k = 40;
