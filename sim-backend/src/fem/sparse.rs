@@ -484,13 +484,12 @@ pub fn factor_flops(symbolic: &Symbolic) -> f64 {
     }
 }
 
-/// Numeric Cholesky of the constrained values `mv` as one factor.
-fn factor_whole(
-    pattern: &Pattern,
+/// Numeric supernodal or simplicial Cholesky of `mat` (lower triangle) for its symbolic
+/// factorization: L's values.
+pub(super) fn numeric_llt(
     symbolic: &SymbolicCholesky<usize>,
-    mv: &[f64],
+    mat: SparseColMatRef<'_, usize, f64>,
 ) -> Result<Vec<f64>, SolveError> {
-    let mat = SparseColMatRef::new(pattern.symbolic.as_ref(), mv);
     let mut factor = Vec::new();
     factor
         .try_reserve_exact(symbolic.len_val())
@@ -558,7 +557,10 @@ impl<'p> Constrained<'p> {
             }
         }
         let factor = match &**symbolic {
-            SymbolicFactor::Whole(sym) => Factor::Whole(factor_whole(pattern, sym, &mv)?),
+            SymbolicFactor::Whole(sym) => Factor::Whole(numeric_llt(
+                sym,
+                SparseColMatRef::new(pattern.symbolic.as_ref(), &mv),
+            )?),
             SymbolicFactor::Split(split) => Factor::Split(split.factor(&mv)?),
         };
         Ok(Self {

@@ -10,8 +10,6 @@
 //! back substitution: the same arithmetic as one factorization of K in the A, B, S order, with
 //! the halves' work (nearly all of it) on two threads.
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::linalg::matmul::matmul;
 use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::linalg::solvers::{Llt, SolveCore};
@@ -26,7 +24,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Accum, Conj, Mat, MatMut, MatRef, Par, Side};
 
-use super::sparse::SolveError;
+use super::sparse::{SolveError, numeric_llt};
 
 const PART_A: u8 = 0;
 const PART_B: u8 = 1;
@@ -207,28 +205,7 @@ impl SplitSymbolic {
             let local: Vec<f64> = h.slot.iter().map(|&s| values[s]).collect();
             let m = h.dofs.len();
             let pattern = SymbolicSparseColMatRef::new_checked(m, m, &h.col_ptr, None, &h.row_idx);
-            let mat = SparseColMatRef::new(pattern, &local);
-            let mut factor = Vec::new();
-            factor
-                .try_reserve_exact(h.symbolic.len_val())
-                .map_err(|_| SolveError::Factor("out of memory for the factor".into()))?;
-            factor.resize(h.symbolic.len_val(), 0.0);
-            let mut mem = MemBuffer::try_new(
-                h.symbolic
-                    .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
-            )
-            .map_err(|_| SolveError::Factor("out of memory for the workspace".into()))?;
-            h.symbolic
-                .factorize_numeric_llt::<f64>(
-                    &mut factor,
-                    mat,
-                    Side::Lower,
-                    LltRegularization::default(),
-                    Par::Seq,
-                    MemStack::new(&mut mem),
-                    Default::default(),
-                )
-                .map_err(|_| SolveError::NotPositiveDefinite)?;
+            let factor = numeric_llt(&h.symbolic, SparseColMatRef::new(pattern, &local))?;
             // L_SS^h L_SS^hᵀ: the separator's share after eliminating the half.
             let l = separator_block(h, &factor, ns);
             // Lower triangle only: a third of the full product's work.
