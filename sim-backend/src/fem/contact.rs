@@ -234,7 +234,7 @@ pub fn solve_contact(
 mod tests {
     use super::*;
     use crate::fem::material::{Analysis, Material};
-    use crate::fem::mesher::{Density, Feature, Layer, mesh_block};
+    use crate::fem::mesher::test_artery_block;
 
     #[test]
     fn tip_profiles() {
@@ -257,22 +257,7 @@ mod tests {
     }
 
     fn setup(pressure_pa: f64) -> (crate::fem::mesh::Mesh, Vec<Material>, f64) {
-        let f = Feature {
-            centre_x_m: 0.02,
-            centre_depth_m: 0.006,
-            lumen_radius_m: Some(0.002),
-            layers: vec![Layer {
-                outer_radius_m: 0.0026,
-                region: 1,
-            }],
-        };
-        let d = Density {
-            near_size_m: 0.0006,
-            far_size_m: 0.002,
-            min_layer_elements: 2,
-            growth: 1.3,
-        };
-        let m = mesh_block(0.04, 0.02, Some(&f), &d).unwrap();
+        let m = test_artery_block(0.006, 0.0026, 0.0006, 0.002);
         (
             m,
             vec![Material::new(50e3, 0.45), Material::new(400e3, 0.49)],

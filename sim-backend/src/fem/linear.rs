@@ -128,7 +128,7 @@ fn assemble(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fem::mesher::{Density, Feature, Layer, mesh_block};
+    use crate::fem::mesher::test_artery_block;
 
     /// Distorted 2x2-element-per-side patch with interior nodes moved off the grid.
     fn patch() -> Mesh {
@@ -259,22 +259,7 @@ mod tests {
 
     /// Plane-strain artery under a platen: the top peak must not drift as ν -> 0.5.
     fn plane_strain_peak(nu: f64) -> f64 {
-        let f = Feature {
-            centre_x_m: 0.02,
-            centre_depth_m: 0.008,
-            lumen_radius_m: Some(0.002),
-            layers: vec![Layer {
-                outer_radius_m: 0.0025,
-                region: 1,
-            }],
-        };
-        let d = Density {
-            near_size_m: 0.0006,
-            far_size_m: 0.002,
-            min_layer_elements: 2,
-            growth: 1.3,
-        };
-        let m = mesh_block(0.04, 0.02, Some(&f), &d).unwrap();
+        let m = test_artery_block(0.008, 0.0025, 0.0006, 0.002);
         let mats = [Material::new(15e3, nu), Material::new(300e3, nu)];
         let lm = LinearModel::new(&m, &mats, Analysis::PlaneStrain).unwrap();
         let mut fixed = vec![false; m.dofs()];

@@ -476,6 +476,33 @@ fn feature_block(w: f64, h: f64, f: &Feature, d: &Density) -> Result<Mesh, MeshE
     Ok(mesh)
 }
 
+/// A 40 x 20 mm block with one artery 20 mm from its left edge (lumen radius 2 mm, the wall
+/// region 1 out to `outer_radius_m`): the mesh the FEM's unit tests share.
+#[cfg(test)]
+pub(crate) fn test_artery_block(
+    centre_depth_m: f64,
+    outer_radius_m: f64,
+    near_size_m: f64,
+    far_size_m: f64,
+) -> super::mesh::Mesh {
+    let f = Feature {
+        centre_x_m: 0.02,
+        centre_depth_m,
+        lumen_radius_m: Some(0.002),
+        layers: vec![Layer {
+            outer_radius_m,
+            region: 1,
+        }],
+    };
+    let d = Density {
+        near_size_m,
+        far_size_m,
+        min_layer_elements: 2,
+        growth: 1.3,
+    };
+    mesh_block(0.04, 0.02, Some(&f), &d).expect("the test block meshes")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

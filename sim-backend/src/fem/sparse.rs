@@ -672,25 +672,10 @@ pub fn element_dofs(el: &[u32; 4]) -> [usize; 8] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fem::mesher::{Density, Feature, Layer, mesh_block};
+    use crate::fem::mesher::test_artery_block;
 
     fn artery_mesh() -> Mesh {
-        let f = Feature {
-            centre_x_m: 0.02,
-            centre_depth_m: 0.008,
-            lumen_radius_m: Some(0.002),
-            layers: vec![Layer {
-                outer_radius_m: 0.0025,
-                region: 1,
-            }],
-        };
-        let d = Density {
-            near_size_m: 0.0008,
-            far_size_m: 0.003,
-            min_layer_elements: 2,
-            growth: 1.3,
-        };
-        mesh_block(0.04, 0.02, Some(&f), &d).unwrap()
+        test_artery_block(0.008, 0.0025, 0.0008, 0.003)
     }
 
     /// Deterministic pseudo-random element matrices (xorshift).
