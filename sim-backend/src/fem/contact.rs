@@ -33,6 +33,22 @@ pub enum Tip {
 }
 
 impl Tip {
+    /// The four fingers of paper 002's tip study (Fig. 13), 16 mm wide.
+    pub const PAPER_002: [Tip; 4] = [
+        Tip::Rectangular {
+            half_width_m: 0.008,
+        },
+        Tip::Filleted {
+            half_width_m: 0.008,
+            fillet_radius_m: 0.002,
+        },
+        Tip::Circular { radius_m: 0.008 },
+        Tip::Elliptical {
+            semi_width_m: 0.008,
+            semi_height_m: 0.004,
+        },
+    ];
+
     /// Height of the tip surface above its lowest point at lateral offset `x`; `None` where
     /// the tip does not reach (outside its width).
     pub fn profile(&self, x: f64) -> Option<f64> {

@@ -226,20 +226,7 @@ mod tests {
 
     #[test]
     fn surfaces_match_the_profiles_and_their_derivatives() {
-        let tips = [
-            Tip::Rectangular {
-                half_width_m: 0.008,
-            },
-            Tip::Filleted {
-                half_width_m: 0.008,
-                fillet_radius_m: 0.002,
-            },
-            Tip::Circular { radius_m: 0.008 },
-            Tip::Elliptical {
-                semi_width_m: 0.008,
-                semi_height_m: 0.004,
-            },
-        ];
+        let tips = Tip::PAPER_002;
         for tip in tips {
             let hw = tip.half_width_m();
             assert!(tip_surface(&tip, 1.001 * hw).is_none());

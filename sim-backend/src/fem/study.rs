@@ -327,20 +327,7 @@ pub fn seed_002(o: &StudyOptions) -> Result<Seed002, StudyError> {
         },
         o,
     )?);
-    let tips = [
-        Tip::Rectangular {
-            half_width_m: 0.008,
-        },
-        Tip::Filleted {
-            half_width_m: 0.008,
-            fillet_radius_m: 0.002,
-        },
-        Tip::Circular { radius_m: 0.008 },
-        Tip::Elliptical {
-            semi_width_m: 0.008,
-            semi_height_m: 0.004,
-        },
-    ];
+    let tips = Tip::PAPER_002;
     let tip_models: Vec<ModelFile> = tips
         .iter()
         .map(|&tip| {

@@ -505,23 +505,7 @@ mod tests {
     use crate::scene::{PathSpec, PulseCoupling, Turn};
 
     fn seed_tube(path: PathSpec) -> TactileModel {
-        let artery = ArterySpec {
-            path: path.clone(),
-            depth_m: 0.005,
-            depth_end_m: None,
-            inner_radius_m: 0.0015,
-            inner_radius_end_m: None,
-            wall_m: 0.001,
-            kernel: Default::default(),
-            coupling: Default::default(),
-        };
-        TactileModel::new(
-            ArteryPath::from_spec(&path).unwrap(),
-            &artery,
-            &SensorSpec::default(),
-            &[],
-            1.0,
-        )
+        model(path, |_| {})
     }
 
     fn model(path: PathSpec, artery: impl FnOnce(&mut ArterySpec)) -> TactileModel {

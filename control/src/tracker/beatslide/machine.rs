@@ -764,19 +764,8 @@ impl Tracker for BeatSlide {
             return Ok(());
         }
         let from = self.seed_points[n - 1];
-        match self.plan(from) {
-            Some((target, speed_m_s)) => {
-                self.state = State::Sliding {
-                    from_s: None,
-                    len_s: self.window_len_s(),
-                    misses: 0,
-                    target,
-                    speed_m_s,
-                };
-                Ok(())
-            }
-            None => Err(too_close),
-        }
+        self.state = self.sliding_from(from).ok_or(too_close)?;
+        Ok(())
     }
 
     fn stop(&mut self) {

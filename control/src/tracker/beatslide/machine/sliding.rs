@@ -36,18 +36,23 @@ impl BeatSlide {
     }
 
     pub(super) fn start_sliding(&mut self, sensor: SurfacePoint, t_s: f64) {
-        match self.plan(sensor) {
-            Some((target, speed_m_s)) => {
-                self.state = State::Sliding {
-                    from_s: None,
-                    len_s: self.window_len_s(),
-                    misses: 0,
-                    target,
-                    speed_m_s,
-                };
-            }
+        match self.sliding_from(sensor) {
+            Some(state) => self.state = state,
             None => self.finish(EndReason::Lost, t_s),
         }
+    }
+
+    /// A fresh slide toward the model's next target from `sensor`, or `None` when the model
+    /// gives no target.
+    pub(super) fn sliding_from(&self, sensor: SurfacePoint) -> Option<State> {
+        let (target, speed_m_s) = self.plan(sensor)?;
+        Some(State::Sliding {
+            from_s: None,
+            len_s: self.window_len_s(),
+            misses: 0,
+            target,
+            speed_m_s,
+        })
     }
 
     pub(super) fn window_len_s(&self) -> f64 {
