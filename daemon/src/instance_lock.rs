@@ -13,6 +13,17 @@ use nix::fcntl::{Flock, FlockArg};
 
 use crate::private_fs::ensure_private_dir;
 
+/// Why the daemon cannot take its configuration.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LockError {
+    /// Another daemon runs on this configuration.
+    #[error("{0}")]
+    Held(String),
+    /// A folder is not the daemon's own, or cannot be made or opened.
+    #[error("{0}")]
+    Folder(String),
+}
+
 /// Held for the daemon's life.
 #[derive(Debug)]
 pub struct InstanceLock {
@@ -22,12 +33,12 @@ pub struct InstanceLock {
 impl InstanceLock {
     /// Lock `<socket>.lock` and `<recording dir>/.pulsetrackd.lock`, making each directory
     /// (and checking that it is the daemon's own) first.
-    pub fn acquire(socket: &Path, recording_dir: &Path) -> Result<InstanceLock, String> {
+    pub fn acquire(socket: &Path, recording_dir: &Path) -> Result<InstanceLock, LockError> {
         let socket_dir = socket
             .parent()
             .filter(|d| !d.as_os_str().is_empty())
             .unwrap_or(Path::new("."));
-        ensure_private_dir(socket_dir)?;
+        ensure_private_dir(socket_dir).map_err(LockError::Folder)?;
         let name = socket
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -35,7 +46,7 @@ impl InstanceLock {
         let mut held = Vec::new();
         let first = socket_dir.join(format!("{name}.lock"));
         held.push((first.clone(), lock(&first)?));
-        ensure_private_dir(recording_dir)?;
+        ensure_private_dir(recording_dir).map_err(LockError::Folder)?;
         let second = recording_dir.join(".pulsetrackd.lock");
         if crate::recording::space::free_bytes(recording_dir).is_ok_and(|(_, ro)| ro) {
             // Nothing can be written there, so nothing there needs guarding; trials are
@@ -55,7 +66,7 @@ impl InstanceLock {
     }
 }
 
-fn lock(path: &Path) -> Result<Flock<File>, String> {
+fn lock(path: &Path) -> Result<Flock<File>, LockError> {
     let file = std::fs::OpenOptions::new()
         .read(true)
         .write(true)
@@ -64,7 +75,9 @@ fn lock(path: &Path) -> Result<Flock<File>, String> {
         .mode(0o640)
         .custom_flags(libc::O_NOFOLLOW | libc::O_CLOEXEC)
         .open(path)
-        .map_err(|e| format!("cannot open the lock file {}: {e}", path.display()))?;
+        .map_err(|e| {
+            LockError::Folder(format!("cannot open the lock file {}: {e}", path.display()))
+        })?;
     match Flock::lock(file, FlockArg::LockExclusiveNonblock) {
         Ok(mut locked) => {
             // The holder's pid, for the message a second daemon prints.
@@ -83,12 +96,15 @@ fn lock(path: &Path) -> Result<Flock<File>, String> {
             } else {
                 format!("another pulsetrackd (pid {holder})")
             };
-            Err(format!(
+            Err(LockError::Held(format!(
                 "{who} is already running on this configuration: it holds {}",
                 path.display()
-            ))
+            )))
         }
-        Err((_, errno)) => Err(format!("cannot lock {}: {errno}", path.display())),
+        Err((_, errno)) => Err(LockError::Folder(format!(
+            "cannot lock {}: {errno}",
+            path.display()
+        ))),
     }
 }
 
@@ -103,14 +119,17 @@ mod tests {
         let rec = tmp.path().join("trials");
         let first = InstanceLock::acquire(&sock, &rec).expect("first");
         assert_eq!(first.paths().count(), 2);
-        let e = InstanceLock::acquire(&sock, &rec).expect_err("second");
+        let e = InstanceLock::acquire(&sock, &rec)
+            .expect_err("second")
+            .to_string();
         assert!(
             e.contains(&format!("(pid {})", std::process::id())) && e.contains("console.sock.lock"),
             "{e}"
         );
         // Another socket on the same recording directory is refused too.
         let e = InstanceLock::acquire(&tmp.path().join("run/other.sock"), &rec)
-            .expect_err("same recordings");
+            .expect_err("same recordings")
+            .to_string();
         assert!(e.contains(".pulsetrackd.lock"), "{e}");
         drop(first);
         InstanceLock::acquire(&sock, &rec).expect("free again");

@@ -17,7 +17,7 @@ use crate::backend;
 use crate::console::hub::StreamHub;
 use crate::console::protocol::ParseLimits;
 use crate::console::server::{self, ServerLinks, ServerSettings};
-use crate::instance_lock::InstanceLock;
+use crate::instance_lock::{InstanceLock, LockError};
 use crate::recording::recorder::{Recorder, RecorderMsg, RecorderSettings};
 use crate::rt::control_loop::{ControlLoop, LoopLinks};
 use crate::rt::flight_recorder::FlightRecorder;
@@ -107,7 +107,7 @@ pub fn main() -> ExitCode {
         Err(e) => {
             tracing::error!("{e}");
             eprintln!("pulsetrackd: {e}");
-            return ExitCode::FAILURE;
+            return ExitCode::from(e.exit_code());
         }
     };
     systemd::ready(&format!("console on {}", daemon.socket_path().display()));
@@ -140,8 +140,22 @@ pub enum StartError {
         source: std::io::Error,
     },
     /// Another daemon holds this configuration, or a directory is not the daemon's own.
-    #[error("{0}")]
-    Refused(String),
+    #[error(transparent)]
+    Lock(#[from] LockError),
+}
+
+impl StartError {
+    /// 2 when the configuration itself is wrong (a restart cannot help: the shipped unit's
+    /// `RestartPreventExitStatus=2`), 1 when a retry may succeed (a device not yet plugged
+    /// in, another daemon still stopping).
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            StartError::Backend(backend::OpenError::Config(_))
+            | StartError::Control(_)
+            | StartError::Lock(LockError::Folder(_)) => 2,
+            _ => 1,
+        }
+    }
 }
 
 fn io_err(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> StartError {
@@ -194,7 +208,7 @@ fn lock_instance(c: &Config) -> Result<InstanceLock, StartError> {
         Path::new(&c.console.socket_path),
         Path::new(&c.recording.dir),
     )
-    .map_err(StartError::Refused)
+    .map_err(StartError::Lock)
 }
 
 impl std::fmt::Debug for Daemon {

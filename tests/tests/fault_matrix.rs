@@ -415,7 +415,7 @@ fn a_second_daemon_on_the_same_config_exits_without_touching_the_first() {
         .arg(&daemon.config)
         .output()
         .expect("second daemon");
-    assert!(!out.status.success());
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains(&format!("(pid {})", daemon.pid()))
@@ -634,7 +634,11 @@ fn a_foreign_owned_or_world_writable_folder_is_refused_at_start() {
             .arg(&config)
             .output()
             .expect("daemon");
-        assert!(!out.status.success());
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "a configuration problem: no restart helps"
+        );
         let err = String::from_utf8_lossy(&out.stderr).into_owned();
         assert!(
             err.contains(&trials.display().to_string()) && err.contains(why),
@@ -650,6 +654,27 @@ fn a_foreign_owned_or_world_writable_folder_is_refused_at_start() {
     } else {
         eprintln!("foreign owner case skipped: chown needs root");
     }
+}
+
+#[test]
+fn a_config_whose_scene_is_missing_exits_2_naming_it() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let setup = Setup {
+        scene: "no-such-scene.ron".into(),
+        ..Setup::default()
+    };
+    let config = e2e::write_config(dir.path(), &setup);
+    let out = Command::new(env!("CARGO_BIN_EXE_pt-daemon"))
+        .arg("--config")
+        .arg(&config)
+        .output()
+        .expect("daemon");
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no-such-scene.ron: no such scene file"),
+        "{err}"
+    );
 }
 
 /// With `PT_FAKE_DAEMON_SOCKET` set, this test is a fake daemon: it listens there and
