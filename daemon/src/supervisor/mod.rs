@@ -626,17 +626,7 @@ impl Supervisor {
         if p.latch_sent {
             return;
         }
-        let rested = match p.hold_seq {
-            None => true,
-            Some(seq) => self
-                .links
-                .status
-                .read()
-                .map(|s| {
-                    s.motion_seq == seq && s.settled || s.mode != crate::rt::link::LoopMode::Enabled
-                })
-                .unwrap_or(true),
-        };
+        let rested = self.at_rest_after(p.hold_seq);
         if !rested && Instant::now() < p.deadline {
             return;
         }
@@ -785,21 +775,26 @@ impl Supervisor {
         });
     }
 
+    /// The hold with this sequence number has settled, or the arm is no longer powered
+    /// (nothing to wait for without a hold).
+    fn at_rest_after(&self, hold_seq: Option<u64>) -> bool {
+        let Some(seq) = hold_seq else {
+            return true;
+        };
+        self.links
+            .status
+            .read()
+            .map(|s| {
+                s.motion_seq == seq && s.settled || s.mode != crate::rt::link::LoopMode::Enabled
+            })
+            .unwrap_or(true)
+    }
+
     fn finish_shutdown_if_ready(&mut self) -> bool {
         let Some(sd) = self.shutdown.as_ref() else {
             return false;
         };
-        let rested = match sd.hold_seq {
-            None => true,
-            Some(seq) => self
-                .links
-                .status
-                .read()
-                .map(|s| {
-                    s.motion_seq == seq && s.settled || s.mode != crate::rt::link::LoopMode::Enabled
-                })
-                .unwrap_or(true),
-        };
+        let rested = self.at_rest_after(sd.hold_seq);
         if !rested && Instant::now() < sd.deadline {
             return false;
         }
