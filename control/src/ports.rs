@@ -23,6 +23,15 @@ pub trait Manipulator {
     /// Command joint torques for the coming cycle. Callers check finiteness first; an
     /// implementation still refuses non-finite values.
     fn write_torques(&mut self, torques: &JointTorques) -> Result<(), Self::Error>;
+
+    /// Clear a fault latched in the arm (a lost bus, an amplifier fault, an e-stop) once its
+    /// cause is gone, without powering anything: the arm stays disabled until `enable`.
+    /// While the cause is still present it returns an error naming it. Never blocks: a
+    /// caller waiting for the cause to clear calls it again. An arm that latches nothing of
+    /// its own has nothing to clear.
+    fn recover(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
 }
 
 /// A tactile array streaming timestamped frames.

@@ -9,7 +9,7 @@ use std::io;
 use std::os::fd::{AsFd, OwnedFd};
 use std::path::{Path, PathBuf};
 
-use nix::fcntl::{FcntlArg, OFlag, fcntl};
+use nix::fcntl::{FcntlArg, FdFlag, OFlag, fcntl};
 use nix::poll::{PollFd, PollFlags, PollTimeout, poll};
 use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
 
@@ -29,6 +29,11 @@ impl Pty {
     /// non-blocking master.
     pub fn open() -> io::Result<Self> {
         let pair = nix::pty::openpty(None, None).map_err(io::Error::from)?;
+        // openpty(3) leaves both ends inheritable: a program started later (a daemon under
+        // test) would hold the master open, and dropping the pair would unplug nothing.
+        for fd in [&pair.master, &pair.slave] {
+            fcntl(fd, FcntlArg::F_SETFD(FdFlag::FD_CLOEXEC)).map_err(io::Error::from)?;
+        }
         let mut t = tcgetattr(&pair.slave).map_err(io::Error::from)?;
         cfmakeraw(&mut t);
         tcsetattr(&pair.slave, SetArg::TCSANOW, &t).map_err(io::Error::from)?;

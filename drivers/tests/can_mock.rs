@@ -508,3 +508,171 @@ proptest! {
         }
     }
 }
+
+/// What `recover` refused with.
+fn not_recovered(r: Result<(), CanError>) -> String {
+    match r {
+        Err(CanError::NotRecovered(why)) => why,
+        other => panic!("expected a refusal naming the cause, got {other:?}"),
+    }
+}
+
+fn sent_commands(bus: &MockBus) -> Vec<ControlCommand> {
+    bus.transmit_pending();
+    Rig::decoded(&bus.take_wire())
+        .into_iter()
+        .filter_map(|m| match m {
+            Message::Control { command, .. } => Some(command),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn recover_without_a_fault_changes_nothing() {
+    let mut rig = Rig::new();
+    rig.feedback([0; 3], 0);
+    rig.arm.recover().expect("nothing latched");
+    assert_eq!(*rig.arm.state(), DriveState::Disabled);
+    assert_eq!(rig.bus.reopens(), 0);
+}
+
+#[test]
+fn recover_after_an_unplugged_adapter_reopens_it_once_it_is_back() {
+    let mut rig = Rig::new().enabled();
+    rig.bus.unplug();
+    match rig.arm.read_joints() {
+        Err(CanError::Faulted(Fault::Adapter { message, .. })) => {
+            assert!(message.contains("unplugged"), "{message}")
+        }
+        other => panic!("{other:?}"),
+    }
+    // Still unplugged: refused, naming the adapter and the OS's words; enable is too.
+    let why = not_recovered(rig.arm.recover());
+    assert!(
+        why.contains("CAN adapter mock CAN bus not available") && why.contains("unplugged"),
+        "{why}"
+    );
+    assert!(matches!(rig.arm.enable(), Err(CanError::CannotEnable(_))));
+    assert_eq!(rig.bus.reopens(), 0);
+
+    // Back, but no amplifier has spoken since: the cause is now the missing feedback.
+    rig.bus.replug();
+    rig.clock.advance(0.2);
+    let why = not_recovered(rig.arm.recover());
+    assert!(
+        why.contains("no fresh feedback from joint 0 (node 1)"),
+        "{why}"
+    );
+    assert_eq!(rig.bus.reopens(), 1);
+    // Feedback again: the latch clears, the arm stays disabled, nothing enables it.
+    rig.feedback([5; 3], 0);
+    rig.arm.recover().expect("cause gone");
+    assert_eq!(*rig.arm.state(), DriveState::Disabled);
+    assert_eq!(rig.bus.reopens(), 1, "reopened once, not every call");
+    let sent = sent_commands(&rig.bus);
+    assert!(!sent.contains(&ControlCommand::Enable), "{sent:?}");
+    // And enabling works as on a fresh start.
+    rig.arm.enable().expect("enable after recovery");
+    rig.feedback([5; 3], status::ENABLED);
+    rig.arm.read_joints().expect("enabled");
+    assert_eq!(*rig.arm.state(), DriveState::Enabled);
+}
+
+#[test]
+fn recover_retries_reopening_at_most_every_tenth_of_a_second() {
+    let mut rig = Rig::new().enabled();
+    rig.bus.unplug();
+    let _ = rig.arm.read_joints();
+    rig.bus.replug();
+    // The first attempt is at once; the loop then calls every millisecond.
+    rig.feedback([0; 3], 0);
+    let _ = rig.arm.recover();
+    assert_eq!(rig.bus.reopens(), 1);
+    rig.bus.unplug();
+    let _ = rig.arm.read_joints();
+    rig.bus.replug();
+    for _ in 0..50 {
+        rig.clock.advance(0.001);
+        let _ = rig.arm.recover();
+    }
+    assert_eq!(rig.bus.reopens(), 1, "no reopen within 0.1 s of the last");
+    rig.clock.advance(0.1);
+    let _ = rig.arm.recover();
+    assert_eq!(rig.bus.reopens(), 2);
+}
+
+#[test]
+fn recover_is_refused_while_the_estop_is_open_and_clears_once_released() {
+    let mut rig = Rig::new().enabled();
+    rig.feedback([0; 3], status::ENABLED | status::ESTOP);
+    assert!(rig.arm.read_joints().is_err());
+    rig.feedback([0; 3], status::ESTOP);
+    let why = not_recovered(rig.arm.recover());
+    assert!(
+        why.contains("e-stop open on joint 0 (node 1)"),
+        "names the cause: {why}"
+    );
+    assert!(matches!(
+        rig.arm.state(),
+        DriveState::Fault(Fault::EStop { .. })
+    ));
+    rig.feedback([0; 3], 0);
+    rig.arm.recover().expect("released");
+    assert_eq!(*rig.arm.state(), DriveState::Disabled);
+    rig.arm.read_joints().expect("joint data again");
+    let sent = sent_commands(&rig.bus);
+    assert!(!sent.contains(&ControlCommand::Enable), "{sent:?}");
+}
+
+#[test]
+fn recover_asks_a_faulted_amplifier_to_clear_and_waits_for_it() {
+    let mut rig = Rig::new().enabled();
+    let emcy = Message::Emergency {
+        node: 2,
+        code: 0x2310,
+        error_register: 0x03,
+        state: NodeState::Fault,
+        detail: [0; 4],
+    };
+    rig.bus.inject_frame(emcy.encode());
+    assert!(rig.arm.read_joints().is_err());
+    sent_commands(&rig.bus);
+    // The amplifier still reports its fault: asked to clear it, then refused, naming it.
+    let mut st = [0u8; 3];
+    st[1] = status::FAULT;
+    let feedback_with = |rig: &mut Rig, st: [u8; 3]| {
+        rig.clock.advance(0.001);
+        for (j, &s) in st.iter().enumerate() {
+            rig.seq[j] = rig.seq[j].wrapping_add(1);
+            let m = Message::Feedback {
+                node: j as u8 + 1,
+                counts: 0,
+                amp_time_us: 0,
+                status: s,
+                seq: rig.seq[j],
+            };
+            rig.bus.inject_frame(m.encode());
+        }
+    };
+    feedback_with(&mut rig, st);
+    let why = not_recovered(rig.arm.recover());
+    assert!(
+        why.contains("joint 1 (node 2) still reports a fault"),
+        "{why}"
+    );
+    assert_eq!(sent_commands(&rig.bus), vec![ControlCommand::ClearFault]);
+    // Asked again only after a while, not every call.
+    feedback_with(&mut rig, st);
+    let _ = rig.arm.recover();
+    assert!(sent_commands(&rig.bus).is_empty());
+    rig.clock.advance(0.1);
+    feedback_with(&mut rig, st);
+    let _ = rig.arm.recover();
+    assert_eq!(sent_commands(&rig.bus), vec![ControlCommand::ClearFault]);
+    // The amplifier cleared: the latch clears, the arm stays disabled.
+    feedback_with(&mut rig, [0; 3]);
+    rig.arm.recover().expect("amplifier cleared");
+    assert_eq!(*rig.arm.state(), DriveState::Disabled);
+    assert!(!sent_commands(&rig.bus).contains(&ControlCommand::Enable));
+}

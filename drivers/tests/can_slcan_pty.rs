@@ -113,3 +113,44 @@ fn torque_moves_the_emulated_arm_and_faults_stop_it() {
     );
     emu.stop().expect("emulator ran cleanly");
 }
+
+#[test]
+fn an_unplugged_slcan_adapter_faults_and_recover_reopens_it_when_it_is_back() {
+    let p = path("slcan-unplug");
+    let emu = PhantomEmulator::start(PhantomEmulatorSettings::new(&p)).expect("emulator");
+    let adapter =
+        SlcanAdapter::open(&p.display().to_string(), 115_200, 1_000_000).expect("open slcan");
+    let mut arm = PhantomCan::new(adapter, &settings(), Arc::new(MonotonicClock::new()));
+    run_until(&mut arm, [0.0; 3], |r, _| r.is_ok()).expect("feedback");
+    // Pulled out: the pty closes and the stable path goes.
+    drop(emu);
+    let r = run_until(&mut arm, [0.0; 3], |_, s| matches!(s, DriveState::Fault(_)));
+    match (r, arm.state()) {
+        (Err(CanError::Faulted(_)), DriveState::Fault(Fault::Adapter { .. })) => {}
+        (r, s) => panic!("{r:?} in {s:?}"),
+    }
+    let link = p.display().to_string();
+    match arm.recover() {
+        Err(CanError::NotRecovered(why)) => assert!(
+            why.contains(&format!("CAN adapter slcan {link} not available")),
+            "{why}"
+        ),
+        other => panic!("{other:?}"),
+    }
+    // Plugged in again: a new pty behind the same path.
+    let _emu = PhantomEmulator::start(PhantomEmulatorSettings::new(&p)).expect("emulator");
+    let start = Instant::now();
+    loop {
+        match arm.recover() {
+            Ok(()) => break,
+            Err(CanError::NotRecovered(why)) => {
+                assert!(start.elapsed() < PATIENCE, "never recovered: {why}")
+            }
+            Err(e) => panic!("{e:?}"),
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    assert_eq!(*arm.state(), DriveState::Disabled);
+    arm.enable().expect("enable after reopening");
+    run_until(&mut arm, [0.0; 3], |_, s| *s == DriveState::Enabled).expect("enabled");
+}

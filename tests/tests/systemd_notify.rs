@@ -15,6 +15,8 @@ fn readiness_and_watchdog_notifications_reach_the_notify_socket() {
     sock.set_read_timeout(Some(Duration::from_millis(200)))
         .expect("timeout");
     let config = e2e::write_config(dir.path(), &e2e::Setup::default());
+    let log_path = dir.path().join("daemon.log");
+    let log = std::fs::File::create(&log_path).expect("log file");
     let mut child = Command::new(env!("CARGO_BIN_EXE_pt-daemon"))
         .arg("--config")
         .arg(&config)
@@ -23,7 +25,7 @@ fn readiness_and_watchdog_notifications_reach_the_notify_socket() {
         .env("RUST_LOG", "warn")
         .stdin(Stdio::null())
         .stdout(Stdio::null())
-        .stderr(Stdio::null())
+        .stderr(Stdio::from(log))
         .spawn()
         .expect("spawn");
     // WATCHDOG_PID unset: sd_notify then accepts the watchdog for any process.
@@ -44,4 +46,11 @@ fn readiness_and_watchdog_notifications_reach_the_notify_socket() {
     assert!(seen.contains("READY=1"), "notifications: {seen:?}");
     assert!(seen.contains("WATCHDOG=1"), "notifications: {seen:?}");
     assert!(status.success(), "{status}");
+    // A daemon that fed the watchdog never starved it: no false alarm at start (every
+    // start logged one, judging progress before the loop had counted anything).
+    let log = std::fs::read_to_string(&log_path).expect("read log");
+    assert!(
+        !log.contains("not feeding the watchdog"),
+        "false watchdog alarm:\n{log}"
+    );
 }

@@ -31,6 +31,9 @@ impl<M: Manipulator + Send> ArmPort for ArmOnBus<M> {
     fn write_torques(&mut self, torques: &JointTorques) -> Result<(), PortError> {
         self.arm.write_torques(torques).map_err(port_err)
     }
+    fn recover(&mut self) -> Result<(), PortError> {
+        self.arm.recover().map_err(port_err)
+    }
     fn now_s(&self) -> f64 {
         self.clock.now_s()
     }

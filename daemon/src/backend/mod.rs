@@ -20,6 +20,11 @@ pub trait ArmPort: Send {
     fn disable(&mut self) -> Result<(), PortError>;
     fn read_joints(&mut self) -> Result<JointState, PortError>;
     fn write_torques(&mut self, torques: &JointTorques) -> Result<(), PortError>;
+    /// `Manipulator::recover`: clear the arm's own latched fault once its cause is gone,
+    /// leaving it unpowered; the error names the cause while it persists.
+    fn recover(&mut self) -> Result<(), PortError> {
+        Ok(())
+    }
     /// The daemon's clock, s: the simulated clock on the sim backend, CLOCK_MONOTONIC since
     /// start on the rig. Every timestamp in the daemon is on this clock.
     fn now_s(&self) -> f64;

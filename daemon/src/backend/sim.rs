@@ -33,6 +33,9 @@ impl ArmPort for SimArmPort {
     fn write_torques(&mut self, torques: &JointTorques) -> Result<(), PortError> {
         self.0.write_torques(torques).map_err(port_err)
     }
+    fn recover(&mut self) -> Result<(), PortError> {
+        self.0.recover().map_err(port_err)
+    }
     fn now_s(&self) -> f64 {
         self.0.now_s()
     }

@@ -26,7 +26,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Check a configuration or scene file and report every problem with file, line and field.
+    /// Check a daemon configuration, scene or FEM model file and what it refers to; report
+    /// every problem with file, line and field.
     CheckConfig(check_config::Args),
     /// Run a whole seeded tracking trial on the simulator through the real daemon and
     /// console; print the summary and write plots.

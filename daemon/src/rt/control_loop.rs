@@ -2,13 +2,15 @@
 //! run the safety layer and the servo, write torques, publish. No allocation and no
 //! blocking on the normal path: ports are non-blocking, channels are bounded and written
 //! with `try_send`, the status goes to a latest-value slot. Errors allocate only when they
-//! fault the loop, which then stops commanding torque.
+//! fault the loop, which then stops commanding torque; a port error that repeats every cycle
+//! (a latched or unplugged arm) is logged once per burst, with its count when it ends.
 
 use std::sync::Arc;
 
 use crossbeam_channel::{Receiver, Sender, TrySendError};
 
 use control::types::{JointState, JointTorques};
+use drivers::burst_log::BurstLog;
 
 use crate::backend::{ArmPort, TactilePort};
 use crate::rt::fault::{Fault, FaultKind};
@@ -23,6 +25,67 @@ use crate::slot::Slot;
 /// Frames and commands handled per cycle at most (the rest wait for the next cycle).
 const MAX_FRAMES_PER_CYCLE: usize = 32;
 const MAX_COMMANDS_PER_CYCLE: usize = 16;
+
+/// How long a `reset` waits for the fault's cause to clear before it is refused, daemon
+/// clock s: a reopened CAN adapter needs a few feedback frames, an amplifier a moment to
+/// clear its fault. The loop keeps cycling meanwhile; nothing blocks.
+const RESET_WAIT_S: f64 = 0.25;
+
+/// A run of the same port error ends after this long without one, s.
+const BURST_QUIET_S: f64 = 2.0;
+
+/// The port errors that can repeat every cycle, each logged once per burst.
+#[derive(Debug)]
+struct PortLogs {
+    read: BurstLog,
+    write: BurstLog,
+    tactile: BurstLog,
+    power: BurstLog,
+}
+
+impl PortLogs {
+    fn new() -> Self {
+        Self {
+            read: BurstLog::new("control loop: reading joints failed", BURST_QUIET_S),
+            write: BurstLog::new("control loop: writing torques failed", BURST_QUIET_S),
+            tactile: BurstLog::new("control loop: tactile port error", BURST_QUIET_S),
+            power: BurstLog::new(
+                "control loop: switching the arm's power failed",
+                BURST_QUIET_S,
+            ),
+        }
+    }
+
+    /// Close bursts that have gone quiet (logging their counts). Four flag tests per cycle
+    /// when nothing is wrong.
+    fn tick(&mut self, now: f64) {
+        for log in [
+            &mut self.read,
+            &mut self.write,
+            &mut self.tactile,
+            &mut self.power,
+        ] {
+            if log.in_burst() {
+                log.end_if_quiet(now);
+            }
+        }
+    }
+}
+
+/// A `reset` waiting for the cause of the fault to clear.
+#[derive(Debug, Clone, Copy)]
+struct PendingReset {
+    seq: u64,
+    until_s: f64,
+}
+
+/// Why fresh joint data could not be had.
+enum JointsProblem {
+    /// The port's error, in its words.
+    Port(String),
+    /// The data came but is unusable (stale, non-finite).
+    Data(Fault),
+}
 
 /// The channels and shared state the loop talks through.
 #[derive(Debug, Clone)]
@@ -49,6 +112,8 @@ pub struct ControlLoop {
     last_pose: Option<SensorPose>,
     last_seq: u64,
     silence_until_s: f64,
+    pending_reset: Option<PendingReset>,
+    logs: PortLogs,
 }
 
 impl std::fmt::Debug for ControlLoop {
@@ -82,6 +147,8 @@ impl ControlLoop {
             last_pose: None,
             last_seq: 0,
             silence_until_s: f64::NEG_INFINITY,
+            pending_reset: None,
+            logs: PortLogs::new(),
         }
     }
 
@@ -111,6 +178,9 @@ impl ControlLoop {
                 Err(_) => break,
             }
         }
+        if let Some(pending) = self.pending_reset {
+            self.continue_reset(now, pending);
+        }
 
         let torques = if self.status.mode == LoopMode::Enabled {
             match joints.as_ref().map(|s| self.enabled_step(now, s)) {
@@ -130,30 +200,41 @@ impl ControlLoop {
         // Always write: the simulator's clock advances with each write, and a disabled rig
         // ignores torques.
         if let Err(e) = self.arm.write_torques(&torques) {
-            tracing::error!("writing torques: {e}");
+            // A latched arm refuses every write: once per burst, not 1000 lines a second.
+            self.logs.write.event(now, || e.to_string());
             self.latch(Fault::new(FaultKind::Backend, now).noting("write_torques failed"));
         }
         self.status.torque_nm = torques.torque_nm;
+        self.logs.tick(now);
         self.publish(now);
     }
 
     fn read_joints(&mut self, now: f64) -> Option<JointState> {
-        let state = match self.arm.read_joints() {
-            Ok(s) => s,
-            Err(e) => {
+        match self.fresh_joints(now) {
+            Ok(s) => Some(s),
+            Err(JointsProblem::Port(e)) => {
                 if self.status.mode == LoopMode::Enabled {
-                    tracing::error!("reading joints: {e}");
+                    self.logs.read.event(now, || e);
                     self.latch(Fault::new(FaultKind::Backend, now).noting("read_joints failed"));
                 }
-                return None;
+                None
             }
-        };
-        if let Err(f) = safety::check_joint_data(&self.limits, now, &state) {
-            if self.status.mode == LoopMode::Enabled {
-                self.latch(f);
+            Err(JointsProblem::Data(f)) => {
+                if self.status.mode == LoopMode::Enabled {
+                    self.latch(f);
+                }
+                None
             }
-            return None;
         }
+    }
+
+    /// Read the joints and, if the data is usable, update the believed pose.
+    fn fresh_joints(&mut self, now: f64) -> Result<JointState, JointsProblem> {
+        let state = self
+            .arm
+            .read_joints()
+            .map_err(|e| JointsProblem::Port(e.0))?;
+        safety::check_joint_data(&self.limits, now, &state).map_err(JointsProblem::Data)?;
         self.status.position_rad = state.position_rad;
         self.status.velocity_rad_s = state.velocity_rad_s;
         self.last_pose = self.servo.sensor_pose(now, &state.position_rad).ok();
@@ -161,7 +242,7 @@ impl ControlLoop {
             self.status.sensor = p.centre;
             self.status.depth_m = p.depth_m;
         }
-        Some(state)
+        Ok(state)
     }
 
     fn drain_tactile(&mut self, now: f64) {
@@ -171,7 +252,7 @@ impl ControlLoop {
                 Ok(None) => break,
                 Err(e) => {
                     // A stream error is judged by staleness: the frames stop arriving.
-                    tracing::warn!("tactile port: {e}");
+                    self.logs.tactile.event(now, || e.to_string());
                     break;
                 }
             };
@@ -228,6 +309,9 @@ impl ControlLoop {
     fn apply(&mut self, now: f64, cmd: ControlCommand, joints: Option<&JointState>) {
         let seq = cmd.seq();
         self.last_seq = seq;
+        if let ControlCommand::Reset { .. } = cmd {
+            return self.begin_reset(now, seq);
+        }
         let outcome = match cmd {
             ControlCommand::Estop { .. } => {
                 if self.fault.is_none() {
@@ -245,7 +329,8 @@ impl ControlLoop {
                 self.silence_until_s = now + duration_s.max(0.0);
                 Ok(())
             }
-            ControlCommand::Reset { .. } => self.reset(now, joints),
+            // Handled above: its answer may wait for the cause to clear.
+            ControlCommand::Reset { .. } => Ok(()),
             _ if self.status.mode == LoopMode::Faulted => Err(Refusal::Faulted),
             ControlCommand::Enable { .. } => self.enable(now, joints),
             ControlCommand::Disable { .. } => {
@@ -291,7 +376,19 @@ impl ControlLoop {
         if self.status.mode == LoopMode::Enabled {
             return Err(Refusal::AlreadyEnabled);
         }
-        let state = joints.ok_or(Refusal::CauseStillPresent(FaultKind::JointStale))?;
+        // No joint data this cycle: the arm may hold a fault of its own (a bus lost while
+        // unpowered); clear it if its cause is gone, else say what the cause is.
+        let recovered;
+        let state = match joints {
+            Some(s) => s,
+            None => {
+                recovered = self.recover_arm(now).map_err(|p| match p {
+                    JointsProblem::Port(why) => Refusal::Cause(why.into()),
+                    JointsProblem::Data(f) => Refusal::CauseStillPresent(f.kind),
+                })?;
+                &recovered
+            }
+        };
         safety::check_joint_limits(&self.limits, now, state)
             .map_err(|f| Refusal::CauseStillPresent(f.kind))?;
         safety::check_tactile(
@@ -312,7 +409,7 @@ impl ControlLoop {
             .map_err(|f| Refusal::CauseStillPresent(f.kind))?;
         if let Err(e) = self.arm.enable() {
             tracing::error!("enabling the arm: {e}");
-            return Err(Refusal::Backend);
+            return Err(Refusal::Cause(e.0.into()));
         }
         self.guard.reset();
         self.status.mode = LoopMode::Enabled;
@@ -322,25 +419,91 @@ impl ControlLoop {
         Ok(())
     }
 
-    fn reset(&mut self, now: f64, joints: Option<&JointState>) -> Result<(), Refusal> {
+    /// Clear the arm's own latched fault if it has one, and read fresh joints.
+    fn recover_arm(&mut self, now: f64) -> Result<JointState, JointsProblem> {
+        self.arm.recover().map_err(|e| JointsProblem::Port(e.0))?;
+        self.fresh_joints(now)
+    }
+
+    fn begin_reset(&mut self, now: f64, seq: u64) {
         if self.fault.is_none() {
-            return Err(Refusal::NoFault);
+            return self.send_event(ControlEvent::Refused {
+                seq,
+                t_s: now,
+                why: Refusal::NoFault,
+            });
         }
-        let state = joints.ok_or(Refusal::CauseStillPresent(FaultKind::JointStale))?;
+        if let Some(older) = self.pending_reset.take() {
+            // The newer request answers for both: the older one is told it was superseded
+            // by what the newer finds.
+            self.send_event(ControlEvent::Refused {
+                seq: older.seq,
+                t_s: now,
+                why: Refusal::Cause("a newer reset replaced this one".into()),
+            });
+        }
+        // Tried in this same cycle, after the commands (`continue_reset`).
+        self.pending_reset = Some(PendingReset {
+            seq,
+            until_s: now + RESET_WAIT_S,
+        });
+    }
+
+    /// One attempt of a pending reset: done, refused once its wait is over, or left pending.
+    fn continue_reset(&mut self, now: f64, pending: PendingReset) {
+        let why = match self.try_reset(now) {
+            Ok(()) => {
+                self.pending_reset = None;
+                return self.send_event(ControlEvent::Done {
+                    seq: pending.seq,
+                    t_s: now,
+                });
+            }
+            Err(why) => why,
+        };
+        if now < pending.until_s {
+            return;
+        }
+        self.pending_reset = None;
+        let why = match why {
+            JointsProblem::Port(text) => Refusal::Cause(text.into()),
+            JointsProblem::Data(f) => Refusal::Cause(f.describe().into()),
+        };
+        self.send_event(ControlEvent::Refused {
+            seq: pending.seq,
+            t_s: now,
+            why,
+        });
+    }
+
+    /// Clear the latched fault if its cause is gone. The arm stays unpowered, its setpoint
+    /// the measured pose.
+    fn try_reset(&mut self, now: f64) -> Result<(), JointsProblem> {
+        let state = self.recover_arm(now)?;
         self.servo
-            .hold_here(now, state)
-            .map_err(|f| Refusal::CauseStillPresent(f.kind))?;
+            .hold_here(now, &state)
+            .map_err(JointsProblem::Data)?;
         self.guard.reset();
         self.fault = None;
         self.status.mode = LoopMode::Disabled;
         self.status.settled = true;
+        // What `status` shows as the setpoint is where the arm is now, not where it was
+        // steering when the fault struck.
+        self.status.setpoint_rad = state.position_rad;
+        self.status.setpoint = self.last_pose.map_or(
+            control::frames::SurfacePoint::new(f64::NAN, f64::NAN),
+            |p| p.centre,
+        );
         self.links.flight.thaw();
         Ok(())
     }
 
     fn power_off(&mut self) {
         if let Err(e) = self.arm.disable() {
-            tracing::error!("disabling the arm: {e}");
+            let now = self.arm.now_s();
+            self.logs
+                .power
+                .event(now, || format!("disabling the arm: {e}"));
         }
         self.guard.reset();
     }

@@ -2,6 +2,8 @@
 //! and stamped tactile frames out (bounded crossbeam channels, never blocking the loop), and
 //! the loop's status in a latest-value slot.
 
+use std::sync::Arc;
+
 use control::frames::SurfacePoint;
 use control::types::{JOINTS, Joints, TactileFrame};
 
@@ -50,7 +52,7 @@ impl ControlCommand {
 }
 
 /// Why the loop refused a command.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Refusal {
     /// A fault is latched: reset first.
     Faulted,
@@ -62,6 +64,9 @@ pub enum Refusal {
     NoFault,
     /// The fault's cause persists (stale or non-finite data).
     CauseStillPresent(FaultKind),
+    /// The fault's cause persists, in the words of whoever sees it (the arm's driver: "e-stop
+    /// open on joint 2 (node 3)"). Built only when refusing, never in a normal cycle.
+    Cause(Arc<str>),
     /// The target cannot be reached or is outside an allowed range.
     Unreachable(FaultKind),
     /// The backend refused.
@@ -81,6 +86,7 @@ impl Refusal {
                     k.as_str().replace('_', " ")
                 )
             }
+            Refusal::Cause(why) => format!("the cause is still present: {why}"),
             Refusal::Unreachable(k) => {
                 format!("target not allowed: {} limit", k.as_str().replace('_', " "))
             }
@@ -90,7 +96,7 @@ impl Refusal {
 }
 
 /// What the loop reports.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum ControlEvent {
     /// A command was carried out.
     Done { seq: u64, t_s: f64 },

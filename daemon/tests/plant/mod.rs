@@ -30,6 +30,21 @@ pub const DT: f64 = 0.001;
 pub struct Knobs {
     pub force_per_element_n: f64,
     pub nan_joints: bool,
+    /// A fault in the arm itself (a driver's latch: e-stop, lost bus) whose cause is
+    /// present, in the driver's words: the arm latches it and refuses reads and writes.
+    pub arm_cause: Option<String>,
+    /// The arm's latch: set by a cause, cleared only by `recover` once the cause is gone.
+    pub arm_latched: bool,
+}
+
+impl Knobs {
+    /// The arm's latch after looking at the cause, like a driver servicing its bus.
+    fn latched(&mut self) -> bool {
+        if self.arm_cause.is_some() {
+            self.arm_latched = true;
+        }
+        self.arm_latched
+    }
 }
 
 struct Plant {
@@ -53,6 +68,9 @@ impl ArmPort for Plant {
         Ok(())
     }
     fn read_joints(&mut self) -> Result<JointState, PortError> {
+        if self.knobs.lock().map(|mut k| k.latched()).unwrap_or(false) {
+            return Err(PortError("arm faulted".into()));
+        }
         let nan = self.knobs.lock().map(|k| k.nan_joints).unwrap_or(false);
         let mut q = self.q;
         if nan {
@@ -64,7 +82,19 @@ impl ArmPort for Plant {
             velocity_rad_s: self.qd,
         })
     }
+    fn recover(&mut self) -> Result<(), PortError> {
+        let mut k = self.knobs.lock().expect("knobs");
+        if let Some(cause) = &k.arm_cause {
+            return Err(PortError(cause.clone()));
+        }
+        k.arm_latched = false;
+        Ok(())
+    }
     fn write_torques(&mut self, t: &JointTorques) -> Result<(), PortError> {
+        let latched = self.knobs.lock().map(|mut k| k.latched()).unwrap_or(false);
+        if latched {
+            self.enabled = false;
+        }
         // Powered: torque against gravity; unpowered: the arm is held (resting on tissue).
         if self.enabled {
             let g = self.gravity.torque_nm(&self.q);
@@ -92,6 +122,10 @@ impl ArmPort for Plant {
                 force_n: [f; 10],
             });
         }
+        if latched {
+            // The clock still advances: a latched rig refuses the command, not time.
+            return Err(PortError("arm faulted: torque refused".into()));
+        }
         Ok(())
     }
     fn now_s(&self) -> f64 {
@@ -116,6 +150,7 @@ pub struct Rig {
     pub knobs: Arc<Mutex<Knobs>>,
     pub seq: u64,
     pub start: SurfacePoint,
+    pub cycles_to_answer: usize,
 }
 
 fn config() -> Config {
@@ -137,7 +172,7 @@ pub fn rig() -> Rig {
     let (ftx, frx) = crossbeam_channel::bounded(1024);
     let knobs = Arc::new(Mutex::new(Knobs {
         force_per_element_n: 0.2,
-        nan_joints: false,
+        ..Knobs::default()
     }));
     let plant = Plant {
         t: 0.0,
@@ -177,6 +212,7 @@ pub fn rig() -> Rig {
         knobs,
         seq: 0,
         start,
+        cycles_to_answer: 0,
     }
 }
 
@@ -189,21 +225,28 @@ impl Rig {
     pub fn status(&self) -> ControlStatus {
         self.status.read().expect("status")
     }
+    /// Send a command and run until it is answered: in the cycle that takes it, or, for a
+    /// reset waiting for its cause to clear, within the loop's wait (0.25 s). The cycles
+    /// run meanwhile are counted in [`Self::cycles_to_answer`].
     pub fn send(&mut self, f: impl FnOnce(u64) -> ControlCommand) -> ControlEvent {
         self.seq += 1;
         let seq = self.seq;
         self.commands.try_send(f(seq)).expect("queue");
-        self.run(1);
-        loop {
-            match self.events.try_recv().expect("an answer") {
-                e @ (ControlEvent::Done { seq: s, .. } | ControlEvent::Refused { seq: s, .. })
-                    if s == seq =>
-                {
-                    return e;
+        for cycles in 1..=1000 {
+            self.run(1);
+            while let Ok(e) = self.events.try_recv() {
+                match e {
+                    ControlEvent::Done { seq: s, .. } | ControlEvent::Refused { seq: s, .. }
+                        if s == seq =>
+                    {
+                        self.cycles_to_answer = cycles;
+                        return e;
+                    }
+                    _ => {}
                 }
-                _ => {}
             }
         }
+        panic!("no answer to command {seq} in 1000 cycles");
     }
     pub fn faults(&self) -> Vec<FaultKind> {
         self.events

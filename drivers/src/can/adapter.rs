@@ -1,5 +1,5 @@
 //! The small interface every CAN adapter offers the driver: non-blocking receive and send,
-//! and discarding frames queued for transmission.
+//! discarding frames queued for transmission, and reopening a device that went away.
 
 use super::frame::{BusEvent, DataFrame};
 
@@ -25,6 +25,12 @@ pub trait CanAdapter: Send {
 
     /// What this adapter is, for messages ("SocketCAN can0").
     fn describe(&self) -> String;
+
+    /// Open the device again after it failed (unplugged, interface gone), from the settings
+    /// it was opened with. Returns at once: it does not wait for the device to answer (the
+    /// driver sees the bus come back as feedback arrives). On an error the adapter stays
+    /// unusable and the error says why, for the operator.
+    fn reopen(&mut self) -> Result<(), AdapterError>;
 }
 
 impl<A: CanAdapter + ?Sized> CanAdapter for Box<A> {
@@ -39,5 +45,8 @@ impl<A: CanAdapter + ?Sized> CanAdapter for Box<A> {
     }
     fn describe(&self) -> String {
         (**self).describe()
+    }
+    fn reopen(&mut self) -> Result<(), AdapterError> {
+        (**self).reopen()
     }
 }

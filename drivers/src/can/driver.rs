@@ -3,10 +3,11 @@
 //! Synchronous and non-blocking: each `read_joints` drains what the adapter has received,
 //! sends the host heartbeat when due and runs the feedback watchdog; `write_torques` sends
 //! one torque frame per joint. Faults latch: bus-off, error-passive, stale feedback, an
-//! amplifier's emergency or e-stop. On a fault every frame still queued for transmission is
-//! discarded and a broadcast disable is the only frame sent, so no old command reaches the
-//! arm when an e-stop is released. `enable` is the explicit recovery; it refuses while the
-//! cause is still present.
+//! amplifier's emergency or e-stop, a lost adapter. On a fault every frame still queued for
+//! transmission is discarded and a broadcast disable is the only frame sent, so no old
+//! command reaches the arm when an e-stop is released. Two ways out, both refused while the
+//! cause is still present: `recover` (the daemon's `reset`: reopens a lost adapter, asks the
+//! amplifiers to clear their faults, leaves the arm disabled) and `enable`.
 
 use std::sync::Arc;
 
@@ -29,6 +30,15 @@ const TX_FULL_LIMIT: u32 = 3;
 
 /// Feedback older than this is not used to compute a velocity difference, s.
 const MAX_VELOCITY_GAP_S: f64 = 0.03;
+
+/// `recover` is called every control cycle while a reset waits for its cause to clear:
+/// reopening a lost adapter and asking the amplifiers to clear their faults are repeated no
+/// more often than this, s.
+const RETRY_INTERVAL_S: f64 = 0.1;
+
+/// A run of the same adapter problem is logged once per burst; a burst ends after this
+/// quiet time, s.
+const BURST_QUIET_S: f64 = 2.0;
 
 /// Why the arm was stopped.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -82,6 +92,9 @@ pub enum CanError {
     NoFeedback { joint: usize, node: u8 },
     #[error("cannot enable: {0}")]
     CannotEnable(String),
+    /// `recover` refused: the fault's cause is still there; the text names it.
+    #[error("{0}")]
+    NotRecovered(String),
 }
 
 /// Where the drive is.
@@ -142,9 +155,14 @@ pub struct PhantomCan<A: CanAdapter> {
     last_heartbeat_s: f64,
     tx_full_cycles: u32,
     stats: CanStats,
+    /// The adapter failed (unplugged, interface gone) and has not been reopened: why.
+    adapter_lost: Option<String>,
+    last_reopen_s: f64,
+    last_clear_fault_s: f64,
     malformed_log: BurstLog,
     warning_log: BurstLog,
     sequence_log: BurstLog,
+    stop_log: BurstLog,
 }
 
 impl<A: CanAdapter> PhantomCan<A> {
@@ -162,9 +180,13 @@ impl<A: CanAdapter> PhantomCan<A> {
             last_heartbeat_s: f64::NEG_INFINITY,
             tx_full_cycles: 0,
             stats: CanStats::default(),
-            malformed_log: BurstLog::new("CAN: malformed frames", 2.0),
-            warning_log: BurstLog::new("CAN: bus errors", 2.0),
-            sequence_log: BurstLog::new("CAN: lost feedback frames", 2.0),
+            adapter_lost: None,
+            last_reopen_s: f64::NEG_INFINITY,
+            last_clear_fault_s: f64::NEG_INFINITY,
+            malformed_log: BurstLog::new("CAN: malformed frames", BURST_QUIET_S),
+            warning_log: BurstLog::new("CAN: bus errors", BURST_QUIET_S),
+            sequence_log: BurstLog::new("CAN: lost feedback frames", BURST_QUIET_S),
+            stop_log: BurstLog::new("CAN: stopping the amplifiers failed", BURST_QUIET_S),
         }
     }
 
@@ -185,20 +207,23 @@ impl<A: CanAdapter> PhantomCan<A> {
     /// reading.
     pub fn service(&mut self) {
         let now = self.clock.now_s();
-        for _ in 0..MAX_EVENTS_PER_CALL {
+        // A lost adapter is not read again until `recover` reopens it.
+        let events = if self.adapter_lost.is_some() {
+            0
+        } else {
+            MAX_EVENTS_PER_CALL
+        };
+        for _ in 0..events {
             match self.adapter.recv() {
                 Ok(Some(ev)) => self.handle(ev, now),
                 Ok(None) => break,
                 Err(e) => {
-                    let adapter = self.adapter.describe();
-                    self.fault(Fault::Adapter {
-                        adapter,
-                        message: e.to_string(),
-                    });
+                    self.lose_adapter(e.to_string());
                     break;
                 }
             }
         }
+        self.stop_log.end_if_quiet(now);
         self.malformed_log.end_if_quiet(now);
         self.warning_log.end_if_quiet(now);
         self.sequence_log.end_if_quiet(now);
@@ -432,13 +457,26 @@ impl<A: CanAdapter> PhantomCan<A> {
     }
 
     fn send(&mut self, frame: &DataFrame) -> Result<(), AdapterError> {
+        if let Some(why) = &self.adapter_lost {
+            return Err(AdapterError::Io(why.clone()));
+        }
         let r = self.adapter.send(frame);
         match &r {
             Ok(()) => self.stats.frames_sent += 1,
             Err(AdapterError::TxFull) => self.stats.tx_full += 1,
-            Err(AdapterError::Io(_)) => {}
+            Err(AdapterError::Io(message)) => self.lose_adapter(message.clone()),
         }
         r
+    }
+
+    /// The adapter failed: latch the fault and stop using it until `recover` reopens it.
+    fn lose_adapter(&mut self, message: String) {
+        let adapter = self.adapter.describe();
+        self.fault(Fault::Adapter {
+            adapter,
+            message: message.clone(),
+        });
+        self.adapter_lost = Some(message);
     }
 
     /// Latch a fault: drop queued frames, broadcast disable. The first fault is kept.
@@ -446,30 +484,99 @@ impl<A: CanAdapter> PhantomCan<A> {
         if let DriveState::Fault(_) = self.state {
             return;
         }
-        tracing::error!("CAN: {f}; all axes disabled, queued frames dropped");
+        if matches!(f, Fault::Adapter { .. }) {
+            tracing::error!(
+                "CAN: {f}; the amplifiers disable themselves on their host-heartbeat timeout"
+            );
+        } else {
+            tracing::error!("CAN: {f}; all axes disabled, queued frames dropped");
+        }
         self.stats.faults += 1;
         self.state = DriveState::Fault(f);
         self.stop_all();
     }
 
-    /// Discard queued frames and broadcast a disable.
+    /// Discard queued frames and broadcast a disable. Nothing to reach on a lost adapter.
     fn stop_all(&mut self) {
+        if self.adapter_lost.is_some() {
+            return;
+        }
+        let now = self.clock.now_s();
         if let Err(e) = self.adapter.discard_pending_tx() {
-            tracing::error!("CAN: could not discard queued frames: {e}");
+            self.stop_log
+                .event(now, || format!("could not discard queued frames: {e}"));
         }
         let disable = Message::Control {
             command: ControlCommand::Disable,
             node: 0,
         };
         if let Err(e) = self.send(&disable.encode()) {
-            tracing::warn!(
-                "CAN: disable not queued ({e}); amplifiers fall back on their host-heartbeat timeout"
-            );
+            self.stop_log.event(now, || {
+                format!(
+                    "disable not queued ({e}); amplifiers fall back on their host-heartbeat timeout"
+                )
+            });
         }
+    }
+
+    /// Reopen a lost adapter, at most every [`RETRY_INTERVAL_S`]. True if it is usable.
+    fn reopen_if_lost(&mut self, now: f64) -> bool {
+        if self.adapter_lost.is_none() {
+            return true;
+        }
+        if now - self.last_reopen_s < RETRY_INTERVAL_S {
+            return false;
+        }
+        self.last_reopen_s = now;
+        match self.adapter.reopen() {
+            Ok(()) => {
+                tracing::info!("CAN: {} reopened", self.adapter.describe());
+                self.adapter_lost = None;
+                // Nothing from before the loss describes the arm now.
+                self.joints = [JointTrack::default(); JOINTS];
+                self.bus_ok = true;
+                self.tx_full_cycles = 0;
+                self.last_heartbeat_s = f64::NEG_INFINITY;
+                true
+            }
+            Err(e) => {
+                self.adapter_lost = Some(e.to_string());
+                false
+            }
+        }
+    }
+
+    /// Why the latched fault cannot be cleared now, if it cannot: the same checks as
+    /// enabling, plus an amplifier that still reports a fault.
+    fn recover_blocker(&self, now: f64) -> Option<String> {
+        if let Some(why) = self.enable_blocker(now) {
+            return Some(why);
+        }
+        for (j, t) in self.joints.iter().enumerate() {
+            if t.status & (status::FAULT | status::OVER_TEMPERATURE) != 0 {
+                let node = self.settings.node_ids[j];
+                let heat = if t.status & status::OVER_TEMPERATURE != 0 {
+                    ", over-temperature"
+                } else {
+                    ""
+                };
+                return Some(format!(
+                    "the amplifier of joint {j} (node {node}) still reports a fault (status {:#04x}{heat}) after being asked to clear it",
+                    t.status
+                ));
+            }
+        }
+        None
     }
 
     /// Why enabling now would be unsafe, if it would be.
     fn enable_blocker(&self, now: f64) -> Option<String> {
+        if let Some(why) = &self.adapter_lost {
+            return Some(format!(
+                "CAN adapter {} not available: {why}",
+                self.adapter.describe()
+            ));
+        }
         if !self.bus_ok {
             return Some(format!(
                 "{} is not error-active (bus-off or error-passive); fix the bus and wait for the controller to recover",
@@ -484,7 +591,9 @@ impl<A: CanAdapter> PhantomCan<A> {
                 ));
             }
             if t.status & status::ESTOP != 0 {
-                return Some(format!("e-stop open (joint {j}); release it first"));
+                return Some(format!(
+                    "e-stop open on joint {j} (node {node}); release it first"
+                ));
             }
         }
         None
@@ -516,6 +625,46 @@ impl<A: CanAdapter> Manipulator for PhantomCan<A> {
             }
         }
         self.state = DriveState::Enabling { since_s: now };
+        Ok(())
+    }
+
+    /// Clear a latched fault once its cause is gone; the arm stays disabled. Never blocks:
+    /// a caller that waits for the bus to come back calls it again (each call reopens a
+    /// lost adapter and re-sends clear-faults at most every 0.1 s).
+    fn recover(&mut self) -> Result<(), CanError> {
+        let now = self.clock.now_s();
+        if !self.reopen_if_lost(now) {
+            let why = self.adapter_lost.clone().unwrap_or_default();
+            return Err(CanError::NotRecovered(format!(
+                "CAN adapter {} not available: {why}",
+                self.adapter.describe()
+            )));
+        }
+        self.service();
+        let DriveState::Fault(latched) = &self.state else {
+            return Ok(());
+        };
+        let latched = latched.clone();
+        let now = self.clock.now_s();
+        let amp_fault = self
+            .joints
+            .iter()
+            .any(|t| t.status & (status::FAULT | status::OVER_TEMPERATURE) != 0);
+        if amp_fault && now - self.last_clear_fault_s >= RETRY_INTERVAL_S {
+            // Clear-faults leaves the amplifiers disabled (docs/protocols/phantom-can.md).
+            self.last_clear_fault_s = now;
+            let m = Message::Control {
+                command: ControlCommand::ClearFault,
+                node: 0,
+            };
+            let _ = self.send(&m.encode());
+        }
+        if let Some(why) = self.recover_blocker(now) {
+            return Err(CanError::NotRecovered(why));
+        }
+        tracing::info!("CAN: latched fault ({latched}) cleared on reset; the arm stays disabled");
+        self.state = DriveState::Disabled;
+        self.tx_full_cycles = 0;
         Ok(())
     }
 

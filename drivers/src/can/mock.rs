@@ -1,5 +1,6 @@
 //! A mock CAN adapter for tests: frames and bus conditions are injected by hand, sent frames
-//! wait in a transmit queue until the test lets the "controller" put them on the wire.
+//! wait in a transmit queue until the test lets the "controller" put them on the wire, and
+//! the device can be unplugged and plugged in again.
 
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -14,7 +15,12 @@ struct Inner {
     wire: Vec<DataFrame>,
     tx_capacity: usize,
     discards: u64,
+    /// The device is gone: every call fails, reopening too.
+    unplugged: bool,
+    reopens: u64,
 }
+
+const UNPLUGGED: &str = "mock CAN bus: device unplugged";
 
 /// Both the adapter (give a clone to the driver) and the test's handle on it.
 #[derive(Debug, Clone)]
@@ -66,15 +72,45 @@ impl MockBus {
     pub fn discards(&self) -> u64 {
         self.lock().discards
     }
+
+    /// The device goes away (USB cable pulled): every call fails until [`Self::replug`]
+    /// and a reopen. What was queued either way is lost.
+    pub fn unplug(&self) {
+        let mut g = self.lock();
+        g.unplugged = true;
+        g.rx.clear();
+        g.pending.clear();
+    }
+
+    /// The device is back; the driver still has to reopen it.
+    pub fn replug(&self) {
+        self.lock().unplugged = false;
+    }
+
+    /// Successful reopens so far.
+    pub fn reopens(&self) -> u64 {
+        self.lock().reopens
+    }
+}
+
+fn gone() -> AdapterError {
+    AdapterError::Io(UNPLUGGED.into())
 }
 
 impl CanAdapter for MockBus {
     fn recv(&mut self) -> Result<Option<BusEvent>, AdapterError> {
-        Ok(self.lock().rx.pop_front())
+        let mut g = self.lock();
+        if g.unplugged {
+            return Err(gone());
+        }
+        Ok(g.rx.pop_front())
     }
 
     fn send(&mut self, frame: &DataFrame) -> Result<(), AdapterError> {
         let mut g = self.lock();
+        if g.unplugged {
+            return Err(gone());
+        }
         if g.pending.len() >= g.tx_capacity {
             return Err(AdapterError::TxFull);
         }
@@ -84,6 +120,9 @@ impl CanAdapter for MockBus {
 
     fn discard_pending_tx(&mut self) -> Result<(), AdapterError> {
         let mut g = self.lock();
+        if g.unplugged {
+            return Err(gone());
+        }
         g.pending.clear();
         g.discards += 1;
         Ok(())
@@ -91,5 +130,17 @@ impl CanAdapter for MockBus {
 
     fn describe(&self) -> String {
         "mock CAN bus".into()
+    }
+
+    fn reopen(&mut self) -> Result<(), AdapterError> {
+        let mut g = self.lock();
+        if g.unplugged {
+            return Err(AdapterError::Io(format!(
+                "cannot open the mock CAN bus: {UNPLUGGED}"
+            )));
+        }
+        g.pending.clear();
+        g.reopens += 1;
+        Ok(())
     }
 }

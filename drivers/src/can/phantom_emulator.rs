@@ -5,7 +5,9 @@
 //! Each joint is an inertia with viscous damping driven by the commanded torque. The
 //! amplifiers behave as the protocol says: feedback at 1 kHz, heartbeats at 10 Hz, enable and
 //! disable on command, a command watchdog (no torque for 20 ms: zero torque), a host-heartbeat
-//! watchdog (none for 0.5 s: disable), an e-stop input, and bus-off on request.
+//! watchdog (none for 0.5 s: disable), an e-stop input, bus-off on request, and amplifier
+//! faults on request: an over-current whose cause persists until the test removes it, then
+//! stays latched until the host sends clear-faults.
 
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
@@ -54,8 +56,13 @@ impl PhantomEmulatorSettings {
 enum Command {
     EStop(bool),
     BusOff,
+    AmpFault { joint: usize, present: bool },
     Stop,
 }
+
+/// The emergency code an injected amplifier fault sends (CiA 301: current, device output
+/// side).
+pub const AMP_FAULT_EMERGENCY_CODE: u16 = 0x2310;
 
 /// The running emulator (its own thread). Dropping it stops it and removes the device.
 #[derive(Debug)]
@@ -98,6 +105,14 @@ impl PhantomEmulator {
         let _ = self.commands.send(Command::BusOff);
     }
 
+    /// Joint `joint`'s amplifier detects an over-current (`present`), or its cause goes
+    /// away (`!present`). While present, the amplifier is disabled, reports a fault (status,
+    /// heartbeat, one emergency frame when it starts) and clear-faults does nothing; once
+    /// gone, the fault stays latched until the host sends clear-faults.
+    pub fn amp_fault(&self, joint: usize, present: bool) {
+        let _ = self.commands.send(Command::AmpFault { joint, present });
+    }
+
     /// Stop; returns the thread's error, if it ended with one.
     pub fn stop(mut self) -> io::Result<()> {
         self.shutdown()
@@ -123,6 +138,8 @@ impl Drop for PhantomEmulator {
 struct Amp {
     enabled: bool,
     fault: bool,
+    /// The cause of a fault is still there: clear-faults cannot clear it.
+    fault_cause: bool,
     torque_counts: i16,
     last_command_s: f64,
     seq: u8,
@@ -178,6 +195,7 @@ impl Arm {
                 Ok(Command::Stop) | Err(mpsc::TryRecvError::Disconnected) => return Ok(()),
                 Ok(Command::EStop(open)) => self.estop = open,
                 Ok(Command::BusOff) => self.bus_off = true,
+                Ok(Command::AmpFault { joint, present }) => self.amp_fault(joint, present),
                 Err(mpsc::TryRecvError::Empty) => {}
             }
             let wait = due.saturating_duration_since(Instant::now());
@@ -198,6 +216,29 @@ impl Arm {
                 }
             }
             self.flush();
+        }
+    }
+
+    fn amp_fault(&mut self, joint: usize, present: bool) {
+        let Some(a) = self.amps.get_mut(joint) else {
+            return;
+        };
+        a.fault_cause = present;
+        if !present || a.fault {
+            return;
+        }
+        a.fault = true;
+        a.enabled = false;
+        a.torque_counts = 0;
+        if self.channel_open && !self.bus_off {
+            let m = Message::Emergency {
+                node: self.settings.joints.node_ids[joint],
+                code: AMP_FAULT_EMERGENCY_CODE,
+                error_register: 0x03, // generic + current
+                state: NodeState::Fault,
+                detail: [0; 4],
+            };
+            encode_frame(&m.encode(), &mut self.out);
         }
     }
 
@@ -270,7 +311,7 @@ impl Arm {
                     let a = &mut self.amps[j];
                     match command {
                         ControlCommand::Enable => {
-                            if !self.estop && !a.fault {
+                            if !self.estop && !a.fault && !a.fault_cause {
                                 a.enabled = true;
                                 a.last_command_s = self.t_s;
                             }
@@ -279,7 +320,7 @@ impl Arm {
                             a.enabled = false;
                             a.torque_counts = 0;
                         }
-                        ControlCommand::ClearFault => a.fault = false,
+                        ControlCommand::ClearFault => a.fault = a.fault_cause,
                     }
                 }
             }

@@ -112,4 +112,9 @@ impl CanAdapter for CandumpReplay {
     fn describe(&self) -> String {
         "candump replay".into()
     }
+
+    /// A log cannot be unplugged: nothing to reopen; the replay goes on where it was.
+    fn reopen(&mut self) -> Result<(), AdapterError> {
+        Ok(())
+    }
 }

@@ -204,6 +204,8 @@ const MAX_PENDING_OUT: usize = 2048;
 /// A Lawicel adapter on a tty.
 pub struct SlcanAdapter {
     path: String,
+    baud: u32,
+    bitrate_code: u8,
     port: Box<dyn tokio_serial::SerialPort>,
     parser: LineParser,
     events: VecDeque<BusEvent>,
@@ -229,14 +231,11 @@ impl SlcanAdapter {
     pub fn open(path: &str, baud: u32, bitrate_bps: u32) -> Result<Self, String> {
         let code = bitrate_code(bitrate_bps)
             .ok_or_else(|| format!("slcan adapters do not support {bitrate_bps} bit/s"))?;
-        let port = tokio_serial::new(path, baud)
-            .timeout(Duration::ZERO)
-            .open()
-            .map_err(|e| {
-                format!("cannot open slcan adapter {path}: {e}; is the USB-CAN adapter plugged in?")
-            })?;
+        let port = open_tty(path, baud)?;
         let mut a = Self {
             path: path.to_string(),
+            baud,
+            bitrate_code: code,
             port,
             parser: LineParser::default(),
             events: VecDeque::new(),
@@ -304,6 +303,15 @@ impl SlcanAdapter {
     pub fn counters(&self) -> (u64, u64) {
         (self.malformed, self.nacks)
     }
+}
+
+fn open_tty(path: &str, baud: u32) -> Result<Box<dyn tokio_serial::SerialPort>, String> {
+    tokio_serial::new(path, baud)
+        .timeout(Duration::ZERO)
+        .open()
+        .map_err(|e| {
+            format!("cannot open slcan adapter {path}: {e}; is the USB-CAN adapter plugged in?")
+        })
 }
 
 fn is_would_block(e: &std::io::Error) -> bool {
@@ -375,6 +383,21 @@ impl CanAdapter for SlcanAdapter {
 
     fn describe(&self) -> String {
         format!("slcan {}", self.path)
+    }
+
+    /// Open the tty again and send the open sequence (close, bitrate, open) without waiting
+    /// for the answers, which `recv` then reads as acknowledgements: the control loop calls
+    /// this and must not block. A device that does not answer shows as missing feedback.
+    fn reopen(&mut self) -> Result<(), AdapterError> {
+        let port = open_tty(&self.path, self.baud).map_err(AdapterError::Io)?;
+        self.port = port;
+        self.parser = LineParser::default();
+        self.events.clear();
+        self.out.clear();
+        self.out
+            .extend_from_slice(format!("C\rS{}\rO\r", self.bitrate_code).as_bytes());
+        self.last_poll = Instant::now();
+        self.flush_out()
     }
 }
 

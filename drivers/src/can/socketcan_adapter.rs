@@ -115,6 +115,14 @@ impl CanAdapter for SocketCanAdapter {
     fn describe(&self) -> String {
         format!("SocketCAN {}", self.interface)
     }
+
+    /// A new socket on the same interface (it fails, saying what to do, while the
+    /// interface is missing or down).
+    fn reopen(&mut self) -> Result<(), AdapterError> {
+        let fresh = Self::open(&self.interface).map_err(AdapterError::Io)?;
+        self.socket = fresh.socket;
+        Ok(())
+    }
 }
 
 #[cfg(test)]

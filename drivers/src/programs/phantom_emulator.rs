@@ -42,7 +42,7 @@ struct Args {
 }
 
 /// Joint angles that put the sensor centre on the surface at tissue-frame `[x, z]`.
-fn pose_for_sensor(
+pub fn pose_for_sensor(
     robot: &config::schema::RobotSection,
     at: &[f64],
 ) -> Result<[f64; 3], control::kinematics::KinematicsError> {
