@@ -33,7 +33,8 @@ const MEASURED_S: f64 = 2.0;
 
 /// A daemon holding the emulated arm, powered.
 struct Session {
-    dir: tempfile::TempDir,
+    /// Kept for the session: the config, sockets, logs and recordings live there.
+    _dir: tempfile::TempDir,
     can_link: PathBuf,
     config: PathBuf,
     arm: Option<PhantomEmulator>,
@@ -59,7 +60,7 @@ fn holding_session() -> Result<Session, Stalled> {
     }
     poll_status(&mut c, "holding", |s| s["state"] == "holding")?;
     Ok(Session {
-        dir,
+        _dir: dir,
         can_link,
         config,
         arm: Some(arm),
