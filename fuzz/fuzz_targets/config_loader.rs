@@ -40,7 +40,10 @@ pub fn check_error(e: &config::ConfigError, text: &str) {
     assert!(!e.problems.is_empty(), "an error with no problem");
     let msg = e.to_string();
     for line in msg.lines() {
-        assert!(line.starts_with(ORIGIN), "a line that names no file: {line:?}");
+        assert!(
+            line.starts_with(ORIGIN),
+            "a line that names no file: {line:?}"
+        );
     }
     let lines = text.split('\n').count();
     for p in &e.problems {

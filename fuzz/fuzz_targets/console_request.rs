@@ -72,7 +72,10 @@ fn check_verb(verb: &Verb, l: &ParseLimits) {
             assert!(x_m.is_finite() && z_m.is_finite());
             assert!(x_m.abs() <= l.max_coordinate_m && z_m.abs() <= l.max_coordinate_m);
             if let Some(s) = speed_m_s {
-                assert!(s.is_finite() && s > 0.0 && s <= l.max_speed_m_s, "speed {s}");
+                assert!(
+                    s.is_finite() && s > 0.0 && s <= l.max_speed_m_s,
+                    "speed {s}"
+                );
             }
         }
         Verb::Track { length_m } => {

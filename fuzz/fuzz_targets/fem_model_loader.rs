@@ -43,7 +43,10 @@ fuzz_target!(|data: &[u8]| {
     if let Some(f) = model.feature() {
         let mut r = f.lumen_radius_m.unwrap_or(0.0);
         for l in &f.layers {
-            assert!(l.outer_radius_m.is_finite() && l.outer_radius_m > r, "{f:?}");
+            assert!(
+                l.outer_radius_m.is_finite() && l.outer_radius_m > r,
+                "{f:?}"
+            );
             r = l.outer_radius_m;
         }
     }

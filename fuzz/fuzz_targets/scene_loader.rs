@@ -51,10 +51,16 @@ fuzz_target!(|data: &[u8]| {
     assert!(len.is_finite() && len > 0.0, "path length {len}");
     for k in 0..=8 {
         let (p, heading) = path.at(len * f64::from(k) / 8.0);
-        assert!(p.is_finite() && heading.is_finite(), "path point {p:?} {heading}");
+        assert!(
+            p.is_finite() && heading.is_finite(),
+            "path point {p:?} {heading}"
+        );
     }
     let n = path.nearest(scene.placements[0]);
-    assert!(n.s_m.is_finite() && n.offset_m.is_finite() && n.point.is_finite(), "{n:?}");
+    assert!(
+        n.s_m.is_finite() && n.offset_m.is_finite() && n.point.is_finite(),
+        "{n:?}"
+    );
 
     if matches!(scene.artery.kernel, PressureKernel::Fem(_)) {
         return;
@@ -70,7 +76,9 @@ fuzz_target!(|data: &[u8]| {
             }
         };
         bench.set_enabled(true);
-        bench.write_torques(&JointTorques::ZERO).expect("zero torque");
+        bench
+            .write_torques(&JointTorques::ZERO)
+            .expect("zero torque");
         for _ in 0..STEPS {
             if let Some(f) = bench.step() {
                 assert!(
