@@ -7,10 +7,13 @@
 pub mod backend;
 pub mod cli;
 pub mod console;
+pub mod instance_lock;
 pub mod plot;
+pub mod private_fs;
 pub mod pulsetrackd;
 pub mod recording;
 pub mod rt;
+pub mod runtime_paths;
 pub mod service;
 pub mod slot;
 pub mod supervisor;

@@ -17,6 +17,7 @@ use crate::backend;
 use crate::console::hub::StreamHub;
 use crate::console::protocol::ParseLimits;
 use crate::console::server::{self, ServerLinks, ServerSettings};
+use crate::instance_lock::{InstanceLock, LockError};
 use crate::recording::recorder::{Recorder, RecorderMsg, RecorderSettings};
 use crate::rt::control_loop::{ControlLoop, LoopLinks};
 use crate::rt::flight_recorder::FlightRecorder;
@@ -48,8 +49,21 @@ pub struct LoadedConfig {
 }
 
 impl LoadedConfig {
-    /// The file given, or the embedded sim default.
+    /// The file given, or the embedded sim default, with `{runtime}` and `{state}` in its
+    /// socket and recording paths resolved for this user ([`crate::runtime_paths`]).
     pub fn load(path: Option<&Path>) -> Result<Self, config::ConfigError> {
+        let mut l = Self::load_raw(path)?;
+        let c = &mut l.config;
+        c.console.socket_path = crate::runtime_paths::expand(&c.console.socket_path)
+            .display()
+            .to_string();
+        c.recording.dir = crate::runtime_paths::expand(&c.recording.dir)
+            .display()
+            .to_string();
+        Ok(l)
+    }
+
+    fn load_raw(path: Option<&Path>) -> Result<Self, config::ConfigError> {
         match path {
             Some(p) => {
                 let l = config::load_file::<Config>(p)?;
@@ -74,6 +88,7 @@ impl LoadedConfig {
 /// Entry point of the `pulsetrackd` program.
 pub fn main() -> ExitCode {
     let args = Args::parse();
+    crate::rt::os::ignore_file_size_signal();
     let sink = logging::init("info");
     let loaded = match LoadedConfig::load(args.config.as_deref()) {
         Ok(l) => l,
@@ -92,7 +107,7 @@ pub fn main() -> ExitCode {
         Err(e) => {
             tracing::error!("{e}");
             eprintln!("pulsetrackd: {e}");
-            return ExitCode::FAILURE;
+            return ExitCode::from(e.exit_code());
         }
     };
     systemd::ready(&format!("console on {}", daemon.socket_path().display()));
@@ -119,8 +134,33 @@ pub enum StartError {
         path: String,
         source: std::io::Error,
     },
-    #[error("{0}")]
-    Io(#[from] std::io::Error),
+    #[error("{what}: {source}")]
+    Io {
+        what: String,
+        source: std::io::Error,
+    },
+    /// Another daemon holds this configuration, or a directory is not the daemon's own.
+    #[error(transparent)]
+    Lock(#[from] LockError),
+}
+
+impl StartError {
+    /// 2 when the configuration itself is wrong (a restart cannot help: the shipped unit's
+    /// `RestartPreventExitStatus=2`), 1 when a retry may succeed (a device not yet plugged
+    /// in, another daemon still stopping).
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            StartError::Backend(backend::OpenError::Config(_))
+            | StartError::Control(_)
+            | StartError::Lock(LockError::Folder(_)) => 2,
+            _ => 1,
+        }
+    }
+}
+
+fn io_err(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> StartError {
+    let what = what.into();
+    move |source| StartError::Io { what, source }
 }
 
 /// The runtime for I/O: the console, signals, the watchdog, the serial driver.
@@ -158,6 +198,17 @@ pub struct Daemon {
     server: Option<tokio::task::JoinHandle<()>>,
     socket_path: PathBuf,
     stop_timeout: Duration,
+    /// Released last, when the daemon is dropped.
+    _lock: InstanceLock,
+}
+
+/// Take the configuration's instance lock (which also checks its directories).
+fn lock_instance(c: &Config) -> Result<InstanceLock, StartError> {
+    InstanceLock::acquire(
+        Path::new(&c.console.socket_path),
+        Path::new(&c.recording.dir),
+    )
+    .map_err(StartError::Lock)
 }
 
 impl std::fmt::Debug for Daemon {
@@ -172,24 +223,30 @@ impl Daemon {
     /// Open the backend the config names, start every task, bind the console socket.
     pub fn start(loaded: LoadedConfig) -> Result<Daemon, StartError> {
         let c = &loaded.config;
-        let runtime = io_runtime()?;
+        // Before anything else: a second daemon on this config must not touch the first
+        // one's trial files or devices.
+        let lock = lock_instance(c)?;
+        let runtime = io_runtime().map_err(io_err("starting the I/O runtime"))?;
         let parts = Parts {
             backend: backend::open(c, loaded.dir.as_deref(), runtime.handle())?,
             servo: crate::rt::core_servo::build(c).map_err(StartError::Control)?,
             tracker: crate::rt::core_servo::tracker_factory(c).map_err(StartError::Control)?,
         };
-        Self::start_on(loaded, parts, runtime)
+        Self::start_on(loaded, parts, runtime, lock)
     }
 
     /// Start with the given backend, servo and trackers (tests substitute doubles here).
     pub fn start_with(loaded: LoadedConfig, parts: Parts) -> Result<Daemon, StartError> {
-        Self::start_on(loaded, parts, io_runtime()?)
+        let lock = lock_instance(&loaded.config)?;
+        let runtime = io_runtime().map_err(io_err("starting the I/O runtime"))?;
+        Self::start_on(loaded, parts, runtime, lock)
     }
 
     fn start_on(
         loaded: LoadedConfig,
         parts: Parts,
         runtime: tokio::runtime::Runtime,
+        lock: InstanceLock,
     ) -> Result<Daemon, StartError> {
         let c = &loaded.config;
         let Parts {
@@ -199,7 +256,6 @@ impl Daemon {
         } = parts;
 
         let recording_dir = PathBuf::from(&c.recording.dir);
-        std::fs::create_dir_all(&recording_dir)?;
         crate::recording::startup::recover_unfinished(&recording_dir);
 
         let (cmd_tx, cmd_rx) = crossbeam_channel::bounded(64);
@@ -214,6 +270,7 @@ impl Daemon {
         let shared_state = Arc::new(AtomicU8::new(0));
         let hub = StreamHub::new();
 
+        let (failure_tx, failure_rx) = crossbeam_channel::bounded(16);
         let recorder = Recorder::new(
             RecorderSettings {
                 dir: recording_dir.clone(),
@@ -221,10 +278,15 @@ impl Daemon {
                 fsync_interval: Duration::from_secs_f64(c.recording.fsync_interval_s),
             },
             hub.clone(),
-        );
+        )
+        .on_failure(Box::new(move |f| {
+            // At most one per trial: the channel never fills.
+            let _ = failure_tx.try_send(f);
+        }));
         let recorder = std::thread::Builder::new()
             .name("pulsetrack-rec".into())
-            .spawn(move || recorder.run(rec_rx))?;
+            .spawn(move || recorder.run(rec_rx))
+            .map_err(io_err("starting the recorder thread"))?;
 
         let info = opened.info.clone();
         let wall_bound = info.wall_clock_bound;
@@ -262,6 +324,7 @@ impl Daemon {
                 "backend": info,
                 "tracker": c.tracker.name,
             }),
+            min_free_bytes: c.recording.min_free_bytes,
         };
         let sup = Supervisor::new(
             settings,
@@ -269,6 +332,7 @@ impl Daemon {
                 inputs: sup_rx,
                 events: ev_rx,
                 samples: sample_rx,
+                recording_failures: failure_rx,
                 commands: cmd_tx,
                 recorder: rec_tx.clone(),
                 status: Arc::clone(&status),
@@ -282,7 +346,8 @@ impl Daemon {
         );
         let supervisor = std::thread::Builder::new()
             .name("pulsetrack-sup".into())
-            .spawn(move || sup.run())?;
+            .spawn(move || sup.run())
+            .map_err(io_err("starting the supervisor thread"))?;
 
         let control = LoopThread::spawn(
             control,
@@ -294,7 +359,8 @@ impl Daemon {
                 report_every_s: c.realtime.overrun_report_s,
                 max_consecutive_overruns: wall_bound.then_some(c.safety.max_consecutive_overruns),
             },
-        )?;
+        )
+        .map_err(io_err("starting the control loop thread"))?;
 
         let socket_path = PathBuf::from(&c.console.socket_path);
         let listener = runtime
@@ -310,6 +376,7 @@ impl Daemon {
             max_line_bytes: c.console.max_line_bytes,
             max_requests_per_s: c.console.max_requests_per_s,
             max_clients: c.console.max_clients,
+            idle_timeout: Duration::from_secs_f64(c.console.idle_timeout_s),
             limits: ParseLimits {
                 max_jog_m: c.operation.max_jog_m,
                 max_speed_m_s: c.control.motion.max_speed_m_s,
@@ -345,6 +412,7 @@ impl Daemon {
             server: Some(server),
             socket_path,
             stop_timeout,
+            _lock: lock,
         })
     }
 

@@ -148,8 +148,16 @@ pub struct ConsoleSection {
     pub max_line_bytes: usize,
     /// Requests per second one client may send before its requests are refused.
     pub max_requests_per_s: f64,
-    /// Clients connected at once.
+    /// Clients connected at once. One more connection is always kept free for `estop` and
+    /// `status` only, so a console full of idle clients never locks out an emergency stop.
     pub max_clients: usize,
+    /// A client that sends no request for this long, and subscribes to nothing, is
+    /// disconnected (told why), s.
+    pub idle_timeout_s: f64,
+    /// The user the daemon runs as (for example `pulsetrack` under the shipped systemd
+    /// unit). The `pulsetrack` console tool talks only to a socket whose owner is root,
+    /// itself, or this user, so a socket swapped by someone else is never trusted.
+    pub daemon_user: Option<String>,
     /// Accept the `debug` verb (fault injection for tests; see docs/console-protocol.md).
     pub debug_hooks: bool,
 }
@@ -163,6 +171,8 @@ impl Default for ConsoleSection {
             max_line_bytes: 64 * 1024,
             max_requests_per_s: 200.0,
             max_clients: 16,
+            idle_timeout_s: 300.0,
+            daemon_user: None,
             debug_hooks: false,
         }
     }
@@ -195,6 +205,14 @@ impl Validate for ConsoleSection {
             "max_clients",
             "must be 1-1024",
         );
+        v.in_range("idle_timeout_s", self.idle_timeout_s, 0.1, 86_400.0);
+        if let Some(u) = &self.daemon_user {
+            v.check(
+                !u.is_empty() && !u.contains(['/', ':', '\n']),
+                "daemon_user",
+                "must be a user name",
+            );
+        }
     }
 }
 
@@ -210,6 +228,9 @@ pub struct RecordingSection {
     /// Buffered records reach the disk at least this often, s (what a power cut can lose).
     /// Acknowledged events are always on disk before the acknowledgement.
     pub fsync_interval_s: f64,
+    /// A trial does not start with less free space than this in `dir`, bytes (about 4 MB
+    /// a trial minute; a write that fails anyway stops the trial with `recording_failed`).
+    pub min_free_bytes: u64,
 }
 
 impl Default for RecordingSection {
@@ -219,6 +240,7 @@ impl Default for RecordingSection {
             joint_decimation: 10,
             flush_interval_s: 0.1,
             fsync_interval_s: 1.0,
+            min_free_bytes: 64 * 1024 * 1024,
         }
     }
 }

@@ -41,9 +41,28 @@ impl Conn {
         Ok(PathBuf::from(loaded.config.console.socket_path))
     }
 
+    /// Connect to the daemon, trusting only a socket served by root, by this user or by
+    /// the config's `console.daemon_user`.
     pub fn connect(&self) -> Result<Client, String> {
         let path = self.socket_path()?;
-        Client::connect(&path, Duration::from_secs(5)).map_err(|e| e.to_string())
+        let trusted = self.trusted_uids()?;
+        Client::connect_trusting(&path, Duration::from_secs(5), &trusted).map_err(|e| e.to_string())
+    }
+
+    fn trusted_uids(&self) -> Result<Vec<u32>, String> {
+        let loaded = crate::pulsetrackd::LoadedConfig::load(self.config.as_deref())
+            .map_err(|e| e.to_string())?;
+        let Some(name) = loaded.config.console.daemon_user else {
+            return Ok(Vec::new());
+        };
+        match nix::unistd::User::from_name(&name) {
+            Ok(Some(u)) => Ok(vec![u.uid.as_raw()]),
+            Ok(None) => Err(format!(
+                "console.daemon_user {name:?} in {} is not a user on this machine",
+                loaded.origin
+            )),
+            Err(e) => Err(format!("looking up console.daemon_user {name:?}: {e}")),
+        }
     }
 }
 

@@ -84,8 +84,12 @@ fn demo_config(args: &Args, out: &Path) -> Result<LoadedConfig, String> {
     Ok(loaded)
 }
 
+/// Under this user's runtime directory, not a guessable name in /tmp that another user
+/// could make first.
 fn socket_dir() -> PathBuf {
-    std::env::temp_dir().join(format!("pulsetrack-demo-{}", std::process::id()))
+    crate::runtime_paths::Env::current()
+        .runtime_dir()
+        .join(format!("demo-{}", std::process::id()))
 }
 
 fn run_inner(args: &Args) -> Result<bool, String> {
@@ -105,6 +109,8 @@ fn run_inner(args: &Args) -> Result<bool, String> {
     let daemon = Daemon::start(loaded).map_err(|e| e.to_string())?;
     let result = drive(&daemon, &out, wall0, &artery);
     let stopped = daemon.shutdown();
+    // The daemon has exited its lock: the demo's private folder can go.
+    let _ = std::fs::remove_file(socket_dir().join("console.sock.lock"));
     let _ = std::fs::remove_dir(socket_dir());
     stopped.map_err(|e| format!("daemon shutdown: {e}"))?;
     result

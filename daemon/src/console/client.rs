@@ -27,6 +27,16 @@ pub enum ClientError {
     Timeout(Duration),
     #[error("{0}")]
     Refused(String),
+    /// The socket is served by a process of a user we do not trust.
+    #[error(
+        "refusing to talk to {path}: it is served by uid {uid}, not by root, by you (uid {own}) or by the configured daemon user{trusted}; someone may have replaced the socket"
+    )]
+    Untrusted {
+        path: String,
+        uid: u32,
+        own: u32,
+        trusted: String,
+    },
 }
 
 #[derive(Debug)]
@@ -40,12 +50,40 @@ pub struct Client {
 }
 
 impl Client {
-    /// Connect and read the hello.
+    /// Connect and read the hello, if the socket is served by root or by this user.
     pub fn connect(path: &Path, timeout: Duration) -> Result<Client, ClientError> {
+        Self::connect_trusting(path, timeout, &[])
+    }
+
+    /// Connect, check before sending anything that the process serving the socket runs as
+    /// root, as this user or as one of `trusted_uids` (SO_PEERCRED of the server), then read
+    /// the hello.
+    pub fn connect_trusting(
+        path: &Path,
+        timeout: Duration,
+        trusted_uids: &[u32],
+    ) -> Result<Client, ClientError> {
         let stream = UnixStream::connect(path).map_err(|source| ClientError::Connect {
             path: path.display().to_string(),
             source,
         })?;
+        let server =
+            nix::sys::socket::getsockopt(&stream, nix::sys::socket::sockopt::PeerCredentials)
+                .map_err(std::io::Error::from)?
+                .uid();
+        let own = nix::unistd::geteuid().as_raw();
+        if server != 0 && server != own && !trusted_uids.contains(&server) {
+            return Err(ClientError::Untrusted {
+                path: path.display().to_string(),
+                uid: server,
+                own,
+                trusted: if trusted_uids.is_empty() {
+                    " (none configured: console.daemon_user)".into()
+                } else {
+                    format!(" {trusted_uids:?}")
+                },
+            });
+        }
         let writer = stream.try_clone()?;
         let mut c = Client {
             reader: BufReader::new(stream),

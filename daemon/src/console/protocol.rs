@@ -140,6 +140,9 @@ pub enum ErrorCode {
     Flood,
     /// The daemon is shutting down or a part of it did not answer.
     Unavailable,
+    /// What the reply would acknowledge could not be written to the trial recording (the
+    /// reason names the file and the OS error); the trial was stopped.
+    RecordingFailed,
 }
 
 /// A request that could not be turned into a verb.

@@ -1,7 +1,10 @@
 //! The console server: accepts local clients on a Unix socket (mode 0660; peers checked by
-//! SO_PEERCRED against the allow-list), greets them, parses each line, hands verbs to the
-//! supervisor and writes replies and subscribed events back. A bad line of any kind gets an
-//! error reply; a flooding client gets `flood` errors; none of it reaches the supervisor.
+//! SO_PEERCRED against the allow-list, supplementary groups included), greets them, parses
+//! each line, hands verbs to the supervisor and writes replies and subscribed events back. A
+//! bad line of any kind gets an error reply; a flooding client gets `flood` errors; none of it
+//! reaches the supervisor. Idle clients are disconnected, and one connection beyond
+//! `max_clients` is always kept for `estop` and `status`, so a full console never locks out
+//! an emergency stop. Every refusal says why.
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
@@ -30,6 +33,8 @@ pub struct ServerSettings {
     pub max_line_bytes: usize,
     pub max_requests_per_s: f64,
     pub max_clients: usize,
+    /// A client with no request and no subscription for this long is disconnected.
+    pub idle_timeout: Duration,
     pub limits: ParseLimits,
     pub backend_kind: &'static str,
     /// Wall time to wait for the supervisor's answer.
@@ -64,9 +69,21 @@ pub async fn bind(path: &Path) -> std::io::Result<UnixListener> {
     Ok(listener)
 }
 
+/// How a connection is served.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Slot {
+    Ordinary,
+    /// The connection kept beyond `max_clients`: `estop` and `status` only.
+    Reserved,
+}
+
+/// How long the reserved connection may sit idle: long enough to type an estop.
+const RESERVED_IDLE: Duration = Duration::from_secs(10);
+
 /// Serve until the task is dropped.
 pub async fn serve(listener: UnixListener, settings: Arc<ServerSettings>, links: ServerLinks) {
     let clients = Arc::new(AtomicUsize::new(0));
+    let reserved = Arc::new(AtomicUsize::new(0));
     loop {
         let (stream, _) = match listener.accept().await {
             Ok(s) => s,
@@ -79,14 +96,27 @@ pub async fn serve(listener: UnixListener, settings: Arc<ServerSettings>, links:
         let settings = Arc::clone(&settings);
         let links = links.clone();
         let clients = Arc::clone(&clients);
+        let reserved = Arc::clone(&reserved);
         tokio::spawn(async move {
-            if clients.fetch_add(1, Ordering::AcqRel) >= settings.max_clients {
+            if clients.fetch_add(1, Ordering::AcqRel) < settings.max_clients {
+                client(stream, &settings, links, Slot::Ordinary).await;
                 clients.fetch_sub(1, Ordering::AcqRel);
-                refuse(stream, "too many console clients").await;
                 return;
             }
-            client(stream, &settings, links).await;
             clients.fetch_sub(1, Ordering::AcqRel);
+            if reserved.fetch_add(1, Ordering::AcqRel) == 0 {
+                client(stream, &settings, links, Slot::Reserved).await;
+                reserved.fetch_sub(1, Ordering::AcqRel);
+                return;
+            }
+            reserved.fetch_sub(1, Ordering::AcqRel);
+            let why = format!(
+                "too many console clients: {} connected and the connection kept for estop/status is in use; idle clients are disconnected after {:.0} s (console.max_clients, console.idle_timeout_s)",
+                settings.max_clients,
+                settings.idle_timeout.as_secs_f64()
+            );
+            tracing::warn!("console: refused a client: {why}");
+            refuse(stream, &why).await;
         });
     }
 }
@@ -101,19 +131,54 @@ fn peer_allowed(stream: &UnixStream, s: &ServerSettings) -> Result<(), String> {
     let cred = stream
         .peer_cred()
         .map_err(|e| format!("cannot read peer credentials: {e}"))?;
-    admit_peer(cred.uid(), cred.gid(), crate::rt::os::effective_uid(), s)
+    admit_peer(
+        cred.uid(),
+        cred.gid(),
+        crate::rt::os::effective_uid(),
+        s,
+        supplementary_groups,
+    )
 }
 
-/// Root, the daemon's own user, and the configured users and groups may connect.
-fn admit_peer(uid: u32, gid: u32, own_uid: u32, s: &ServerSettings) -> Result<(), String> {
+/// The groups a user belongs to, from the user database (SO_PEERCRED gives only the primary
+/// group). Empty when the uid has no entry.
+fn supplementary_groups(uid: u32, gid: u32) -> Vec<u32> {
+    use nix::unistd::{Gid, Uid, User, getgrouplist};
+    let Ok(Some(user)) = User::from_uid(Uid::from_raw(uid)) else {
+        return Vec::new();
+    };
+    let Ok(name) = std::ffi::CString::new(user.name) else {
+        return Vec::new();
+    };
+    getgrouplist(&name, Gid::from_raw(gid))
+        .map(|g| g.into_iter().map(|g| g.as_raw()).collect())
+        .unwrap_or_default()
+}
+
+/// Root, the daemon's own user, and the configured users and groups (primary or
+/// supplementary) may connect.
+fn admit_peer(
+    uid: u32,
+    gid: u32,
+    own_uid: u32,
+    s: &ServerSettings,
+    groups_of: impl Fn(u32, u32) -> Vec<u32>,
+) -> Result<(), String> {
     if uid == 0 || uid == own_uid || s.allowed_uids.contains(&uid) || s.allowed_gids.contains(&gid)
     {
-        Ok(())
-    } else {
-        Err(format!(
-            "uid {uid} gid {gid} is not allowed (console.allowed_uids / allowed_gids)"
-        ))
+        return Ok(());
     }
+    let mut gids = groups_of(uid, gid);
+    if gids.iter().any(|g| s.allowed_gids.contains(g)) {
+        return Ok(());
+    }
+    if !gids.contains(&gid) {
+        gids.insert(0, gid);
+    }
+    Err(format!(
+        "uid {uid} with groups {gids:?} is not allowed: the daemon (uid {own_uid}) admits root, its own user, console.allowed_uids {:?} and console.allowed_gids {:?}",
+        s.allowed_uids, s.allowed_gids
+    ))
 }
 
 /// What a client subscribed to.
@@ -123,7 +188,7 @@ struct Subscription {
     tactile_every: u32,
 }
 
-async fn client(stream: UnixStream, s: &ServerSettings, links: ServerLinks) {
+async fn client(stream: UnixStream, s: &ServerSettings, links: ServerLinks, slot: Slot) {
     if let Err(why) = peer_allowed(&stream, s) {
         tracing::warn!("console: refused a client: {why}");
         refuse(stream, &why).await;
@@ -135,7 +200,19 @@ async fn client(stream: UnixStream, s: &ServerSettings, links: ServerLinks) {
     let mut events = links.hub.subscribe();
 
     let state = state_from_code(links.state.load(Ordering::Acquire));
-    let mut greeting = hello(env!("CARGO_PKG_VERSION"), state.as_str(), s.backend_kind).to_string();
+    let mut greeting = hello(env!("CARGO_PKG_VERSION"), state.as_str(), s.backend_kind);
+    if slot == Slot::Reserved
+        && let Value::Object(o) = &mut greeting
+    {
+        o.insert(
+            "restricted".into(),
+            json!(format!(
+                "the console is full ({} clients): this connection accepts only estop and status",
+                s.max_clients
+            )),
+        );
+    }
+    let mut greeting = greeting.to_string();
     greeting.push('\n');
     if write.write_all(greeting.as_bytes()).await.is_err() {
         return;
@@ -182,8 +259,29 @@ async fn client(stream: UnixStream, s: &ServerSettings, links: ServerLinks) {
 
     let mut reader = BufReader::new(read);
     let mut bucket = TokenBucket::new(s.max_requests_per_s);
+    let idle = match slot {
+        Slot::Ordinary => s.idle_timeout,
+        Slot::Reserved => s.idle_timeout.min(RESERVED_IDLE),
+    };
+    let mut subscribed = false;
     loop {
-        let line = match read_line(&mut reader, s.max_line_bytes).await {
+        // A subscriber is a watcher, not idle; anyone else must say something now and then.
+        let next = if subscribed {
+            read_line(&mut reader, s.max_line_bytes).await
+        } else {
+            match tokio::time::timeout(idle, read_line(&mut reader, s.max_line_bytes)).await {
+                Ok(r) => r,
+                Err(_) => {
+                    let why = format!(
+                        "no request for {:.0} s: disconnected to free the slot (console.idle_timeout_s)",
+                        idle.as_secs_f64()
+                    );
+                    send(&out_tx, error_reply(None, ErrorCode::Unavailable, &why)).await;
+                    break;
+                }
+            }
+        };
+        let line = match next {
             Ok(Line::Eof) => break,
             Ok(Line::TooLong(n)) => {
                 let why = format!(
@@ -214,11 +312,24 @@ async fn client(stream: UnixStream, s: &ServerSettings, links: ServerLinks) {
                 continue;
             }
         };
+        if slot == Slot::Reserved && !matches!(req.verb, Verb::Estop | Verb::Status) {
+            let why = format!(
+                "the console is full ({} clients): this connection accepts only estop and status",
+                s.max_clients
+            );
+            send(
+                &out_tx,
+                error_reply(Some(req.id), ErrorCode::Unavailable, &why),
+            )
+            .await;
+            continue;
+        }
         let reply = match &req.verb {
             Verb::Subscribe {
                 streams,
                 tactile_every,
             } => {
+                subscribed = !streams.is_empty();
                 let _ = sub_tx.send(Subscription {
                     streams: streams.clone(),
                     tactile_every: *tactile_every,
@@ -229,6 +340,7 @@ async fn client(stream: UnixStream, s: &ServerSettings, links: ServerLinks) {
                 )
             }
             Verb::Unsubscribe => {
+                subscribed = false;
                 let _ = sub_tx.send(Subscription::default());
                 ok_reply(req.id, json!({}))
             }
@@ -274,7 +386,8 @@ enum Line {
 }
 
 /// Read one line of at most `max` bytes (without its newline). A longer line is consumed
-/// up to its newline and reported, never buffered whole.
+/// up to its newline and reported, never buffered whole. A last line without its newline is
+/// discarded: a client that closes mid-line did not finish its request.
 async fn read_line<R: tokio::io::AsyncBufRead + Unpin>(
     r: &mut R,
     max: usize,
@@ -285,13 +398,12 @@ async fn read_line<R: tokio::io::AsyncBufRead + Unpin>(
     loop {
         let buf = r.fill_buf().await?;
         if buf.is_empty() {
-            return Ok(if too_long {
-                Line::TooLong(seen)
-            } else if line.is_empty() {
-                Line::Eof
-            } else {
-                Line::Text(line)
-            });
+            if !line.is_empty() || too_long {
+                tracing::debug!(
+                    "console: {seen} bytes without a newline before the close, discarded"
+                );
+            }
+            return Ok(Line::Eof);
         }
         let (chunk, found) = match buf.iter().position(|b| *b == b'\n') {
             Some(i) => (&buf[..i], Some(i)),
@@ -365,7 +477,11 @@ mod tests {
                 Line::TooLong(n) => got.push(format!("too long {n}")),
             }
         }
-        assert_eq!(got, vec!["short", "too long 25", "ok", "no-newline"]);
+        assert_eq!(
+            got,
+            vec!["short", "too long 25", "ok"],
+            "the unfinished line is dropped"
+        );
     }
 
     #[test]
@@ -377,6 +493,7 @@ mod tests {
             max_line_bytes: 1024,
             max_requests_per_s: 10.0,
             max_clients: 4,
+            idle_timeout: Duration::from_secs(60),
             limits: ParseLimits {
                 max_jog_m: 0.01,
                 max_speed_m_s: 0.03,
@@ -387,12 +504,27 @@ mod tests {
             reply_timeout: Duration::from_secs(1),
         };
         let own = 990;
-        assert!(admit_peer(0, 0, own, &s).is_ok());
-        assert!(admit_peer(own, 5, own, &s).is_ok());
-        assert!(admit_peer(1001, 5, own, &s).is_ok());
-        assert!(admit_peer(1500, 2000, own, &s).is_ok());
-        let e = admit_peer(1500, 1500, own, &s).expect_err("stranger");
-        assert!(e.contains("uid 1500 gid 1500 is not allowed"), "{e}");
+        let none = |_, _| Vec::new();
+        assert!(admit_peer(0, 0, own, &s, none).is_ok());
+        assert!(admit_peer(own, 5, own, &s, none).is_ok());
+        assert!(admit_peer(1001, 5, own, &s, none).is_ok());
+        assert!(admit_peer(1500, 2000, own, &s, none).is_ok());
+        // A member of the allowed group by a supplementary membership only.
+        let member = |uid, gid| {
+            if uid == 1600 {
+                vec![gid, 2000]
+            } else {
+                vec![gid]
+            }
+        };
+        assert!(admit_peer(1600, 1600, own, &s, member).is_ok());
+        let e = admit_peer(1500, 1500, own, &s, member).expect_err("stranger");
+        assert!(
+            e.contains("uid 1500 with groups [1500] is not allowed")
+                && e.contains("allowed_uids [1001]")
+                && e.contains("allowed_gids [2000]"),
+            "{e}"
+        );
     }
 
     #[test]

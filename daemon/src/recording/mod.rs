@@ -4,6 +4,7 @@
 pub mod naming;
 pub mod recorder;
 pub mod recover;
+pub mod space;
 pub mod startup;
 pub mod topics;
 pub mod trial_file;

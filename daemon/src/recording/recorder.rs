@@ -5,6 +5,12 @@
 //! only once its records are fdatasync'd, so nothing acknowledged is lost to a crash, a
 //! kill -9 or a power cut. Other records reach the kernel every `flush_interval_s` and the
 //! disk every `fsync_interval_s`.
+//!
+//! A recording that cannot be written (a full disk, a read-only or vanished folder) is never
+//! dropped quietly: the recorder tells the supervisor at once (which stops the trial safely
+//! and latches `recording_failed`), every durable reply for that trial becomes a
+//! `recording_failed` error naming the file and the OS error, and durable events for it are
+//! withheld (counted in the log) rather than published as if recorded.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -15,6 +21,7 @@ use crossbeam_channel::{Receiver, RecvTimeoutError};
 use serde_json::Value;
 
 use crate::console::hub::{Responder, StreamEvent, StreamHub};
+use crate::console::protocol::{ErrorCode, error_reply};
 use crate::recording::topics::Topic;
 use crate::recording::trial_file::TrialFile;
 
@@ -71,6 +78,22 @@ pub struct RecorderSettings {
     pub fsync_interval: Duration,
 }
 
+/// A trial recording that could not be written: which file, and the OS's words.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordingFailure {
+    pub path: PathBuf,
+    pub error: String,
+}
+
+impl RecordingFailure {
+    pub fn describe(&self) -> String {
+        format!("cannot write {}: {}", self.path.display(), self.error)
+    }
+}
+
+/// Told to whoever must stop the trial when its recording fails.
+pub type FailureAlert = Box<dyn Fn(RecordingFailure) + Send>;
+
 pub struct Recorder {
     settings: RecorderSettings,
     hub: StreamHub,
@@ -78,7 +101,10 @@ pub struct Recorder {
     trial_id: Option<String>,
     last_flush: Instant,
     last_sync: Instant,
-    failed: bool,
+    /// Set when the open trial's file failed; cleared when the trial closes.
+    failure: Option<RecordingFailure>,
+    alert: Option<FailureAlert>,
+    withheld_events: u64,
 }
 
 impl std::fmt::Debug for Recorder {
@@ -98,8 +124,16 @@ impl Recorder {
             trial_id: None,
             last_flush: Instant::now(),
             last_sync: Instant::now(),
-            failed: false,
+            failure: None,
+            alert: None,
+            withheld_events: 0,
         }
+    }
+
+    /// Call `alert` (once per trial) when the open trial's recording fails.
+    pub fn on_failure(mut self, alert: FailureAlert) -> Self {
+        self.alert = Some(alert);
+        self
     }
 
     /// Run until `Shutdown` (or every sender is gone).
@@ -135,6 +169,10 @@ impl Recorder {
             RecorderMsg::Publish { event, durable } => {
                 if durable {
                     self.sync();
+                    if self.failure.is_some() {
+                        self.withheld_events += 1;
+                        return;
+                    }
                 }
                 self.hub.publish(event);
             }
@@ -142,6 +180,10 @@ impl Recorder {
                 if durable {
                     self.sync();
                 }
+                let reply = match (&self.failure, durable) {
+                    (Some(f), true) => not_recorded(&reply, f),
+                    _ => reply,
+                };
                 let _ = to.send(reply);
             }
             RecorderMsg::Close { summary, then } => {
@@ -156,34 +198,55 @@ impl Recorder {
 
     fn open(&mut self, id: String, metadata: BTreeMap<String, String>) {
         self.close_file(None);
-        if let Err(e) = std::fs::create_dir_all(&self.settings.dir) {
-            tracing::error!(
-                "cannot create the recording directory {}: {e}; this trial is not recorded",
-                self.settings.dir.display()
-            );
-            return;
-        }
         let path = self.settings.dir.join(format!("{id}.mcap"));
+        self.trial_id = Some(id);
+        if let Err(e) = crate::private_fs::ensure_private_dir(&self.settings.dir) {
+            return self.set_failure(RecordingFailure {
+                path: self.settings.dir.clone(),
+                error: e,
+            });
+        }
         match TrialFile::create(&path, &metadata) {
             Ok(f) => {
                 tracing::info!("recording trial to {}", path.display());
                 self.file = Some(f);
-                self.trial_id = Some(id);
-                self.failed = false;
             }
-            Err(e) => tracing::error!(
-                "cannot create {}: {e}; this trial is not recorded",
-                path.display()
-            ),
+            Err(e) => self.set_failure(RecordingFailure {
+                path,
+                error: e.to_string(),
+            }),
         }
     }
 
     fn fail(&mut self, e: &std::io::Error) {
-        if !self.failed {
-            tracing::error!("recording failed: {e}; the rest of this trial is not recorded");
+        let path = self
+            .file
+            .as_ref()
+            .map(|f| f.path().to_path_buf())
+            .unwrap_or_else(|| self.settings.dir.clone());
+        // The writer is forgotten, not finished: finishing would only try to write more to
+        // a file that just refused, and what reached the disk stays recoverable.
+        if let Some(f) = self.file.take() {
+            f.abandon();
         }
-        self.failed = true;
-        self.file = None;
+        self.set_failure(RecordingFailure {
+            path,
+            error: e.to_string(),
+        });
+    }
+
+    fn set_failure(&mut self, failure: RecordingFailure) {
+        if self.failure.is_some() {
+            return;
+        }
+        tracing::error!(
+            "recording failed: {}; stopping the trial",
+            failure.describe()
+        );
+        if let Some(alert) = &self.alert {
+            alert(failure.clone());
+        }
+        self.failure = Some(failure);
     }
 
     fn sync(&mut self) {
@@ -220,9 +283,22 @@ impl Recorder {
                 Ok(n) => {
                     tracing::info!("trial recording closed: {} ({n} messages)", path.display())
                 }
-                Err(e) => tracing::error!("closing {}: {e}", path.display()),
+                Err(e) => tracing::error!(
+                    "closing {}: {e}; the file stays readable up to its last flush (`pulsetrack recover`)",
+                    path.display()
+                ),
             }
         }
+        if let Some(f) = self.failure.take()
+            && self.withheld_events > 0
+        {
+            tracing::error!(
+                "{} events of the failed trial were not published because they could not be recorded ({})",
+                self.withheld_events,
+                f.describe()
+            );
+        }
+        self.withheld_events = 0;
         if let (Some(id), Some(summary)) = (id, summary) {
             let path = self.settings.dir.join(format!("{id}.json"));
             if let Err(e) = write_json_atomically(&path, &summary) {
@@ -232,12 +308,35 @@ impl Recorder {
     }
 }
 
+/// A durable reply that cannot keep its promise becomes an error saying why.
+fn not_recorded(reply: &Value, f: &RecordingFailure) -> Value {
+    let id = reply.get("id").and_then(Value::as_u64);
+    let mut r = error_reply(
+        id,
+        ErrorCode::RecordingFailed,
+        &format!(
+            "not recorded: {}; the trial is stopped (free space or fix the folder, then reset)",
+            f.describe()
+        ),
+    );
+    if let (Value::Object(o), Some(state)) = (&mut r, reply.get("state")) {
+        o.insert("state".into(), state.clone());
+    }
+    r
+}
+
 /// Write `value` to `path` through a temporary file, fsync'd and renamed into place.
 pub fn write_json_atomically(path: &Path, value: &Value) -> std::io::Result<()> {
     use std::io::Write;
     let tmp = path.with_extension("json.tmp");
+    // A stale temporary (or anything planted there) goes; the new one is made afresh.
+    match std::fs::remove_file(&tmp) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(e),
+    }
     {
-        let mut f = std::fs::File::create(&tmp)?;
+        let mut f = crate::private_fs::create_new(&tmp)?;
         serde_json::to_writer_pretty(&mut f, value)?;
         f.write_all(b"\n")?;
         f.sync_all()?;

@@ -56,17 +56,31 @@ impl std::fmt::Debug for TrialFile {
     }
 }
 
+/// mcap wraps the OS error in a message that does not name it ("I/O error from writing");
+/// hand back the OS error itself, so the log and the fault say "No space left on device".
 fn mcap_err(e: mcap::McapError) -> std::io::Error {
-    std::io::Error::other(e)
+    match e {
+        mcap::McapError::Io(io) => io,
+        other => std::io::Error::other(other),
+    }
 }
 
 impl TrialFile {
-    /// Create `path` (refusing to overwrite) with every channel declared.
+    /// Create `path` (refusing to overwrite or to follow a link) with every channel declared.
+    /// A file that cannot even take its header (a full disk) is removed again: it holds
+    /// nothing, and would only be quarantined at the next start.
     pub fn create(path: &Path, metadata: &BTreeMap<String, String>) -> std::io::Result<Self> {
-        let file = std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(path)?;
+        let file = crate::private_fs::create_new(path)?;
+        Self::start(path, file, metadata).inspect_err(|_| {
+            let _ = std::fs::remove_file(path);
+        })
+    }
+
+    fn start(
+        path: &Path,
+        file: File,
+        metadata: &BTreeMap<String, String>,
+    ) -> std::io::Result<Self> {
         let sync_handle = file.try_clone()?;
         let options = mcap::WriteOptions::new()
             .compression(None)
@@ -162,6 +176,17 @@ impl TrialFile {
         }
         self.unflushed = false;
         self.sync_handle.sync_data()
+    }
+
+    /// Let go of a file that failed to write, without trying to write its footer (what is
+    /// on disk stays readable up to its last complete chunk).
+    pub fn abandon(mut self) {
+        if let Some(w) = self.writer.take() {
+            // `into_inner` hands back the sink without writing the summary (dropping the
+            // Writer would try to finish the file); the unwritten buffer is discarded.
+            let Sink(buffered) = w.into_inner();
+            let _ = buffered.into_parts();
+        }
     }
 
     /// Write the summary section and footer, and sync.

@@ -235,6 +235,12 @@ impl ControlLoop {
                 }
                 Ok(())
             }
+            ControlCommand::Latch { kind, .. } => {
+                if self.fault.is_none() {
+                    self.latch(Fault::new(kind, now));
+                }
+                Ok(())
+            }
             ControlCommand::SilenceTactile { duration_s, .. } => {
                 self.silence_until_s = now + duration_s.max(0.0);
                 Ok(())

@@ -39,6 +39,8 @@ pub enum FaultKind {
     Backend,
     /// Emergency stop requested.
     Estop,
+    /// The trial recording could not be written (the supervisor names the file and error).
+    RecordingFailed,
 }
 
 impl FaultKind {
@@ -60,6 +62,7 @@ impl FaultKind {
             FaultKind::Kinematics => "kinematics",
             FaultKind::Backend => "backend",
             FaultKind::Estop => "estop",
+            FaultKind::RecordingFailed => "recording_failed",
         }
     }
 

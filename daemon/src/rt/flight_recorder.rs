@@ -104,8 +104,13 @@ impl FlightRecorder {
 
     /// Write the snapshot as JSON lines to `path`, fsync'd. Returns the number of records.
     pub fn dump(&self, path: &Path) -> std::io::Result<usize> {
+        self.dump_to(crate::private_fs::create_new(path)?)
+    }
+
+    /// Write the frozen ring to `file` (one JSON object a line) and fsync it.
+    pub fn dump_to(&self, file: std::fs::File) -> std::io::Result<usize> {
         let records = self.snapshot();
-        let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+        let mut f = std::io::BufWriter::new(file);
         for r in &records {
             serde_json::to_writer(&mut f, r)?;
             f.write_all(b"\n")?;

@@ -26,6 +26,8 @@ pub enum ControlCommand {
     },
     /// Latch an `estop` fault: power off at once.
     Estop { seq: u64 },
+    /// Latch a fault the supervisor found (a failed recording): power off at once.
+    Latch { seq: u64, kind: FaultKind },
     /// Clear a latched fault; the arm stays unpowered with its setpoint at the measured pose.
     Reset { seq: u64 },
     /// Test hook: ignore tactile frames for this long (daemon clock), as if the stream died.
@@ -40,6 +42,7 @@ impl ControlCommand {
             | ControlCommand::Hold { seq }
             | ControlCommand::MoveTo { seq, .. }
             | ControlCommand::Estop { seq }
+            | ControlCommand::Latch { seq, .. }
             | ControlCommand::Reset { seq }
             | ControlCommand::SilenceTactile { seq, .. } => seq,
         }

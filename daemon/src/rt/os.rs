@@ -94,6 +94,16 @@ pub fn prefault_stack(bytes: usize) {
     }
 }
 
+/// Make a file-size limit (RLIMIT_FSIZE) an error instead of death: by default SIGXFSZ
+/// kills the process, and a recording that outgrows a limit must fail like a full disk
+/// (EFBIG), stopping the trial safely, not take the daemon down with the arm powered.
+pub fn ignore_file_size_signal() {
+    // SAFETY: installs the predefined SIG_IGN disposition; no handler code runs.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
+}
+
 /// The process's effective user id.
 pub fn effective_uid() -> u32 {
     // SAFETY: geteuid has no arguments and cannot fail.

@@ -27,9 +27,9 @@ use crate::backend::{BackendInfo, PathJudge, Truth};
 use crate::console::hub::{Responder, StreamEvent};
 use crate::console::protocol::{DebugAction, ErrorCode, Stream, Verb, error_reply, ok_reply};
 use crate::recording::naming::utc_stamp;
-use crate::recording::recorder::RecorderMsg;
+use crate::recording::recorder::{RecorderMsg, RecordingFailure};
 use crate::recording::topics::Topic;
-use crate::rt::fault::Fault;
+use crate::rt::fault::{Fault, FaultKind};
 use crate::rt::flight_recorder::FlightRecorder;
 use crate::rt::link::{
     ControlCommand, ControlEvent, ControlStatus, LoopSample, Refusal, StampedFrame,
@@ -79,6 +79,8 @@ pub struct SupervisorSettings {
     pub stop_timeout: Duration,
     /// Context recorded with every trial (config file, backend, scene).
     pub trial_context: Value,
+    /// A trial does not start with less free space than this in the recording folder, bytes.
+    pub min_free_bytes: u64,
 }
 
 /// The channels the supervisor works with.
@@ -87,6 +89,8 @@ pub struct SupervisorLinks {
     pub inputs: Receiver<SupervisorInput>,
     pub events: Receiver<ControlEvent>,
     pub samples: Receiver<LoopSample>,
+    /// The recorder's word that the open trial's file cannot be written.
+    pub recording_failures: Receiver<RecordingFailure>,
     pub commands: Sender<ControlCommand>,
     pub recorder: Sender<RecorderMsg>,
     pub status: Arc<Slot<ControlStatus>>,
@@ -111,6 +115,9 @@ enum Purpose {
     TrackerHold,
     Debug,
     ShutdownHold,
+    /// Coming to rest before a failed recording latches its fault.
+    RecordingHold,
+    Latch,
 }
 
 struct Pending {
@@ -118,6 +125,14 @@ struct Pending {
     purpose: Purpose,
     reply: Option<(u64, Responder)>,
     sent: Instant,
+}
+
+/// A failed recording waiting for the arm to come to rest before its fault latches.
+struct PendingLatch {
+    failure: RecordingFailure,
+    hold_seq: Option<u64>,
+    deadline: Instant,
+    latch_sent: bool,
 }
 
 struct Shutdown {
@@ -134,6 +149,9 @@ pub struct Supervisor {
     factory: TrackerFactory,
     state: OpState,
     fault: Option<(Fault, Option<PathBuf>)>,
+    /// Words the loop's fault cannot carry (the failed file and the OS error).
+    fault_detail: Option<String>,
+    pending_latch: Option<PendingLatch>,
     tracker: Option<Box<dyn Tracker>>,
     trial: Option<Trial>,
     last_trial: Option<Value>,
@@ -191,6 +209,8 @@ impl Supervisor {
             factory,
             state: OpState::Disabled,
             fault: None,
+            fault_detail: None,
+            pending_latch: None,
             tracker: None,
             trial: None,
             last_trial: None,
@@ -226,6 +246,7 @@ impl Supervisor {
                 },
                 recv(self.links.events) -> e => if let Ok(e) = e { self.on_event(e) },
                 recv(self.links.samples) -> s => if let Ok(s) = s { self.on_sample(s) },
+                recv(self.links.recording_failures) -> f => if let Ok(f) = f { self.on_recording_failed(f) },
                 recv(ticker) -> _ => self.on_tick(),
             }
             if self.finish_shutdown_if_ready() {
@@ -488,6 +509,7 @@ impl Supervisor {
             Purpose::Disable => self.set_state(OpState::Disabled),
             Purpose::Reset => {
                 self.fault = None;
+                self.fault_detail = None;
                 self.set_state(OpState::Disabled);
             }
             Purpose::Estop => {}
@@ -510,7 +532,9 @@ impl Supervisor {
             Purpose::TrackerMove
             | Purpose::TrackerHold
             | Purpose::Debug
-            | Purpose::ShutdownHold => {}
+            | Purpose::ShutdownHold
+            | Purpose::RecordingHold
+            | Purpose::Latch => {}
         }
         if let Some((id, to)) = reply {
             let result = match p.purpose {
@@ -522,45 +546,128 @@ impl Supervisor {
     }
 
     fn on_fault(&mut self, f: Fault) {
-        let reason = f.describe();
+        let mut reason = f.describe();
+        // Whatever latched, a failed recording waiting for its own fault is part of the story.
+        if let Some(p) = self.pending_latch.take() {
+            self.fault_detail = Some(p.failure.describe());
+        }
+        if let Some(d) = &self.fault_detail {
+            reason = format!("{reason}: {d}");
+        }
         tracing::error!("FAULT latched: {reason}");
         let dump = self.dump_flight_recorder(&f);
         self.end_trial(TrialEnd::Fault);
-        for p in self.pending.drain(..) {
-            if let Some((id, to)) = p.reply {
-                let mut r = error_reply(Some(id), ErrorCode::Refused, &format!("fault: {reason}"));
-                if let Value::Object(o) = &mut r {
-                    o.insert("state".into(), Value::from("fault"));
-                }
-                let _ = self.links.recorder.send(RecorderMsg::Reply {
-                    to,
-                    reply: r,
-                    durable: false,
-                });
-            }
-        }
         self.fault = Some((f, dump.clone()));
         self.set_state(OpState::Fault);
+        for p in self.pending.drain(..).collect::<Vec<_>>() {
+            let Some((id, to)) = p.reply else { continue };
+            // The estop did what it was asked: its own reply says so, with the state it left.
+            if p.purpose == Purpose::Estop {
+                self.reply_ok(id, to, json!({"fault": f.kind}), false);
+                continue;
+            }
+            let mut r = error_reply(Some(id), ErrorCode::Refused, &format!("fault: {reason}"));
+            if let Value::Object(o) = &mut r {
+                o.insert("state".into(), Value::from("fault"));
+            }
+            let _ = self.links.recorder.send(RecorderMsg::Reply {
+                to,
+                reply: r,
+                durable: false,
+            });
+        }
         let v = json!({"event": "fault", "t_s": f.t_s, "fault": f.kind, "reason": reason,
             "axis": f.axis, "value": finite_or_null(f.value), "limit": finite_or_null(f.limit),
             "flight_recorder": dump});
         self.publish(Stream::Faults, 0, &v, true);
     }
 
+    /// The trial's recording cannot be written: stop the trial, bring the arm to rest, then
+    /// latch `recording_failed` (on the tick that sees it settled, or at the stop timeout).
+    fn on_recording_failed(&mut self, failure: RecordingFailure) {
+        tracing::error!(
+            "{}: stopping the trial, holding, then latching recording_failed",
+            failure.describe()
+        );
+        if let Some(tr) = self.tracker.as_mut() {
+            tr.stop();
+        }
+        self.end_trial(TrialEnd::RecordingFailed);
+        if self.fault.is_some() || self.pending_latch.is_some() {
+            return;
+        }
+        let hold_seq = if self.state.powered() {
+            let seq = self.seq();
+            self.motion_seq = seq;
+            self.send(ControlCommand::Hold { seq }, Purpose::RecordingHold, None);
+            if matches!(
+                self.state,
+                OpState::Tracking | OpState::Paused | OpState::Seeding | OpState::Moving
+            ) {
+                self.set_state(OpState::Holding);
+            }
+            Some(seq)
+        } else {
+            None
+        };
+        self.pending_latch = Some(PendingLatch {
+            failure,
+            hold_seq,
+            deadline: Instant::now() + self.s.stop_timeout,
+            latch_sent: false,
+        });
+        self.latch_if_rested();
+    }
+
+    fn latch_if_rested(&mut self) {
+        let Some(p) = self.pending_latch.as_ref() else {
+            return;
+        };
+        if p.latch_sent {
+            return;
+        }
+        let rested = self.at_rest_after(p.hold_seq);
+        if !rested && Instant::now() < p.deadline {
+            return;
+        }
+        if let Some(p) = self.pending_latch.as_mut() {
+            p.latch_sent = true;
+        }
+        let seq = self.seq();
+        self.send(
+            ControlCommand::Latch {
+                seq,
+                kind: FaultKind::RecordingFailed,
+            },
+            Purpose::Latch,
+            None,
+        );
+    }
+
+    /// Dump the frozen ring to a new `fault-<utc>-<kind>[-N].jsonl`: two faults in the same
+    /// second get two files, and a planted link is never followed.
     fn dump_flight_recorder(&self, f: &Fault) -> Option<PathBuf> {
-        if let Err(e) = std::fs::create_dir_all(&self.s.recording_dir) {
-            tracing::error!(
-                "flight recorder: cannot create {}: {e}",
-                self.s.recording_dir.display()
-            );
+        let dir = &self.s.recording_dir;
+        if let Err(e) = crate::private_fs::ensure_private_dir(dir) {
+            tracing::error!("flight recorder: {e}");
             return None;
         }
-        let path = self.s.recording_dir.join(format!(
-            "fault-{}-{}.jsonl",
+        let stem = format!(
+            "fault-{}-{}",
             utc_stamp(std::time::SystemTime::now()),
             f.kind.as_str()
-        ));
-        match self.links.flight.dump(&path) {
+        );
+        let (path, file) = match crate::private_fs::create_unique(dir, &stem, "jsonl") {
+            Ok(x) => x,
+            Err(e) => {
+                tracing::error!(
+                    "flight recorder: cannot create {stem}.jsonl in {}: {e}",
+                    dir.display()
+                );
+                return None;
+            }
+        };
+        match self.links.flight.dump_to(file) {
             Ok(n) => {
                 tracing::error!(
                     "flight recorder: {n} cycles before the fault in {}",
@@ -617,6 +724,9 @@ impl Supervisor {
                 "the control loop did not answer in time",
             );
         }
+        if self.pending_latch.is_some() {
+            self.latch_if_rested();
+        }
         if self.state == OpState::Moving
             && let Some(st) = self.links.status.read()
             && st.motion_seq == self.motion_seq
@@ -665,21 +775,26 @@ impl Supervisor {
         });
     }
 
+    /// The hold with this sequence number has settled, or the arm is no longer powered
+    /// (nothing to wait for without a hold).
+    fn at_rest_after(&self, hold_seq: Option<u64>) -> bool {
+        let Some(seq) = hold_seq else {
+            return true;
+        };
+        self.links
+            .status
+            .read()
+            .map(|s| {
+                s.motion_seq == seq && s.settled || s.mode != crate::rt::link::LoopMode::Enabled
+            })
+            .unwrap_or(true)
+    }
+
     fn finish_shutdown_if_ready(&mut self) -> bool {
         let Some(sd) = self.shutdown.as_ref() else {
             return false;
         };
-        let rested = match sd.hold_seq {
-            None => true,
-            Some(seq) => self
-                .links
-                .status
-                .read()
-                .map(|s| {
-                    s.motion_seq == seq && s.settled || s.mode != crate::rt::link::LoopMode::Enabled
-                })
-                .unwrap_or(true),
-        };
+        let rested = self.at_rest_after(sd.hold_seq);
         if !rested && Instant::now() < sd.deadline {
             return false;
         }
@@ -698,7 +813,7 @@ impl Supervisor {
     }
 
     fn status_json(&self) -> Value {
-        report::status_json(
+        let mut v = report::status_json(
             self.links.status.read().unwrap_or_default(),
             self.fault.as_ref(),
             &self.info,
@@ -706,7 +821,13 @@ impl Supervisor {
             self.last_trial.as_ref(),
             self.timing,
             self.frames_seen,
-        )
+        );
+        if let (Some(d), Some(f)) = (&self.fault_detail, v.get_mut("fault"))
+            && let Value::Object(o) = f
+        {
+            o.insert("detail".into(), Value::from(d.as_str()));
+        }
+        v
     }
 }
 

@@ -23,7 +23,10 @@ impl Supervisor {
         let t = self.now_s();
         let verb_name = verb.name();
         let logged = json!({"event": "verb", "t_s": t, "verb": verb_name, "id": id, "args": format!("{verb:?}")});
-        self.record(Topic::Events, t, &logged);
+        // A mark that starts a trial is recorded in that trial, once it is open.
+        if !matches!(verb, Verb::Mark) {
+            self.record(Topic::Events, t, &logged);
+        }
         match verb {
             Verb::Status | Verb::Subscribe { .. } | Verb::Unsubscribe => {
                 self.reply_ok(id, to, json!({}), false)
@@ -83,7 +86,7 @@ impl Supervisor {
                 let target = SurfacePoint::new(from.x_m + dx_m, from.z_m + dz_m);
                 self.manual_move(id, to, target, self.s.move_speed_m_s);
             }
-            Verb::Mark => self.mark(id, to, t),
+            Verb::Mark => self.mark(id, to, t, &logged),
             Verb::Track { length_m } => self.track(id, to, t, length_m),
             Verb::Pause => {
                 let seq = self.seq();
@@ -153,10 +156,16 @@ impl Supervisor {
         );
     }
 
-    pub(super) fn mark(&mut self, id: u64, to: Responder, t: f64) {
+    pub(super) fn mark(&mut self, id: u64, to: Responder, t: f64, logged: &Value) {
         if self.state == OpState::Done || self.trial.is_none() {
+            if let Err(why) =
+                crate::recording::space::check_room(&self.s.recording_dir, self.s.min_free_bytes)
+            {
+                return self.reply_err(id, to, ErrorCode::Refused, &why);
+            }
             self.start_trial(t);
         }
+        self.record(Topic::Events, t, logged);
         let Some(tracker) = self.tracker.as_mut() else {
             return self.reply_err(id, to, ErrorCode::Unavailable, "no tracker could be built");
         };

@@ -36,6 +36,8 @@ pub enum TrialEnd {
     Shutdown,
     /// Abandoned before tracking started (stop during a mark, or a new trial begun).
     Abandoned,
+    /// The recording could not be written, so the trial could not go on.
+    RecordingFailed,
 }
 
 impl TrialEnd {
@@ -46,6 +48,7 @@ impl TrialEnd {
             TrialEnd::Disabled => "disabled",
             TrialEnd::Shutdown => "shutdown",
             TrialEnd::Abandoned => "abandoned",
+            TrialEnd::RecordingFailed => "recording_failed",
         }
     }
 }

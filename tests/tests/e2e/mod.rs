@@ -47,7 +47,7 @@ pub fn write_config(dir: &Path, s: &Setup) -> PathBuf {
     let trials = dir.join("trials");
     let mut text = text
         .replace(
-            "socket_path: \"/tmp/pulsetrack/console.sock\",",
+            "socket_path: \"{runtime}/console.sock\",",
             &format!(
                 "socket_path: {:?},\n        debug_hooks: {},",
                 socket.display().to_string(),
@@ -55,7 +55,7 @@ pub fn write_config(dir: &Path, s: &Setup) -> PathBuf {
             ),
         )
         .replace(
-            "dir: \"/tmp/pulsetrack/trials\",",
+            "dir: \"{state}/trials\",",
             &format!("dir: {:?},", trials.display().to_string()),
         )
         .replace(
@@ -77,8 +77,27 @@ pub fn start(dir: &Path, s: &Setup) -> (Running, Client) {
 }
 
 pub fn start_with_config(dir: &Path, config: PathBuf) -> (Running, Client) {
-    let log = std::fs::File::create(dir.join("daemon.log")).expect("log file");
-    let child = Command::new(env!("CARGO_BIN_EXE_pt-daemon"))
+    start_wrapped(dir, config, &[])
+}
+
+/// Start the daemon under `wrapper` (a command and its arguments that exec the daemon, such
+/// as `prlimit --fsize=N --`); empty runs it directly.
+pub fn start_wrapped(dir: &Path, config: PathBuf, wrapper: &[&str]) -> (Running, Client) {
+    let log = std::fs::File::options()
+        .create(true)
+        .append(true)
+        .open(dir.join("daemon.log"))
+        .expect("log file");
+    let daemon = env!("CARGO_BIN_EXE_pt-daemon");
+    let mut cmd = match wrapper.split_first() {
+        Some((program, args)) => {
+            let mut c = Command::new(program);
+            c.args(args).arg(daemon);
+            c
+        }
+        None => Command::new(daemon),
+    };
+    let child = cmd
         .arg("--config")
         .arg(&config)
         .env("RUST_LOG", "info")
