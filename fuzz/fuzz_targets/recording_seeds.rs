@@ -47,7 +47,7 @@ fn write(path: &Path, n: usize, finish: bool) -> Vec<u8> {
     let mut f = TrialFile::create(path, &meta).expect("create");
     for i in 0..n {
         let t = i as f64 * 0.01;
-        let tactile = serde_json::json!({"t_s": t, "seq": i, "force_n": [0.1; 10]});
+        let tactile = serde_json::json!({"t_s": t, "seq": i, "force_n": vec![0.1; 10]});
         f.write(Topic::Tactile, t, tactile.to_string().as_bytes())
             .expect("write");
         let joints = serde_json::json!({"t_s": t, "q_rad": [0.0, 0.1, 0.2]});
