@@ -67,3 +67,74 @@ enabled = b"".join(fb(n, 10 * k, 1000 * k, 1, k) for k in range(4, 8) for n in (
 (c / "bus_off").write_bytes(feedback + rec(0x10, 0) + enabled + rec(0xF0, 0x0001) + enabled)
 (c / "slcan_text").write_bytes(b"t1818000000000000010A\rF20\rz\r\x07t7022\r")
 (c / "emergency").write_bytes(feedback + rec(0x10, 0) + enabled + rec(0x40, 0x082, struct.pack("<HBB4s", 0x2310, 1, 3, b"\0" * 4)))
+
+
+# Text targets start from the shipped files and documented lines, past the parser's surface.
+ROOT = HERE.parent.parent
+
+
+def copy_files(target, files):
+    d = HERE / target
+    d.mkdir(exist_ok=True)
+    for f in files:
+        (d / f.name).write_bytes(f.read_bytes())
+
+
+copy_files("config_loader", [ROOT / "config/sim.ron", ROOT / "config/lab.ron"])
+copy_files("scene_loader", sorted((ROOT / "config/scenes").glob("*.ron")))
+copy_files("fem_model_loader", sorted((ROOT / "config/fem").glob("*.ron")))
+
+# console_request: one line per file, every verb and argument of docs/console-protocol.md.
+console = {
+    "status": '{"id":1,"verb":"status"}',
+    "enable": '{"id":2,"verb":"enable"}',
+    "disable": '{"id":3,"verb":"disable"}',
+    "home": '{"id":4,"verb":"home"}',
+    "jog": '{"id":5,"verb":"jog","dx_m":0.001,"dz_m":-0.0005}',
+    "move": '{"id":7,"verb":"move","x_m":0.012,"z_m":-0.002,"speed_m_s":0.01}',
+    "move_null_speed": '{"id":8,"verb":"move","x_m":0,"z_m":0,"speed_m_s":null}',
+    "mark": '{"id":9,"verb":"mark"}',
+    "track": '{"id":10,"verb":"track","length_m":0.05}',
+    "track_open": '{"id":11,"verb":"track"}',
+    "pause": '{"id":12,"verb":"pause"}',
+    "resume": '{"id":13,"verb":"resume"}',
+    "stop": '{"id":14,"verb":"stop"}',
+    "estop": '{"id":15,"verb":"estop"}',
+    "reset": '{"id":16,"verb":"reset"}',
+    "subscribe": '{"id":17,"verb":"subscribe","streams":["state","tactile","detections","faults","trials"],"tactile_every":10}',
+    "subscribe_all": '{"id":18,"verb":"subscribe"}',
+    "unsubscribe": '{"id":19,"verb":"unsubscribe"}',
+    "debug": '{"id":20,"verb":"debug","action":"silence_tactile","duration_s":0.5}',
+    "big_id": '{"id":18446744073709551615,"verb":"status"}',
+    "exponent": '{"id":21,"verb":"move","x_m":1.2e-2,"z_m":-2E-3}',
+    "unicode": '{"id":22,"verb":"st\\u0061tus"}',
+}
+d = HERE / "console_request"
+d.mkdir(exist_ok=True)
+for name, line in console.items():
+    (d / name).write_bytes(line.encode())
+
+# Scene variants the shipped files do not use: the FEM kernel, hold-down coupling, straight
+# and polyline paths.
+arc = (ROOT / "config/scenes/seed-arc-145.ron").read_text()
+arc_path = "path: Arc(radius_m: 0.145, length_m: 0.26, chord_centre: (x_m: 0.0, z_m: 0.0272), turn: Left),"
+assert arc_path in arc
+variants = {
+    "variant-fem-kernel.ron": arc.replace(
+        "wall_m: 0.001,",
+        "wall_m: 0.001,\n        kernel: Fem(tissue: (e_pa: 20e3, nu: 0.45), wall: (e_pa: 100e3, nu: 0.49), refine: 0),",
+    ),
+    "variant-hold-down.ron": arc.replace(
+        "wall_m: 0.001,", "wall_m: 0.001,\n        coupling: HoldDown(reference_normal_n: 3.0),"
+    ),
+    "variant-straight.ron": arc.replace(
+        arc_path, "path: Straight(start: (x_m: -0.13, z_m: 0.0), heading_rad: 0.1, length_m: 0.26),"
+    ),
+    "variant-polyline.ron": arc.replace(
+        arc_path,
+        "path: Polyline(points: [(x_m: -0.1, z_m: 0.0), (x_m: 0.0, z_m: 0.01), (x_m: 0.1, z_m: 0.0)]),",
+    ),
+}
+for name, text in variants.items():
+    assert text != arc, name
+    (HERE / "scene_loader" / name).write_text(text)

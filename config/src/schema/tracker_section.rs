@@ -29,7 +29,9 @@ impl Validate for TrackerSection {
             TRACKER_NAMES.contains(&self.name.as_str()),
             "name",
             format!(
-                "unknown tracker `{}`; known trackers: {}",
+                // Quoted and escaped: the name is the file's text, and a newline in it
+                // would start an error line that names no file.
+                "unknown tracker {:?}; known trackers: {}",
                 self.name,
                 TRACKER_NAMES.join(", ")
             ),
@@ -238,7 +240,9 @@ mod tests {
         };
         let p = problems(&section, &sensor);
         assert_eq!(p.len(), 1, "{p:?}");
-        assert!(p[0].starts_with("name: unknown tracker `seed2003`") && p[0].contains("seed2002"));
+        assert!(
+            p[0].starts_with("name: unknown tracker \"seed2003\"") && p[0].contains("seed2002")
+        );
 
         let mut section = TrackerSection::default();
         section.params.seed2002 = Seed2002Params {
@@ -274,5 +278,18 @@ mod tests {
             p[0].starts_with("params.seed2002: ") && p[0].contains("3 Hz"),
             "{p:?}"
         );
+    }
+
+    /// Found with the `config_loader` fuzz target (docs/fuzzing.md; the minimized input):
+    /// a tracker name with a newline broke the error into a line that named no file.
+    #[test]
+    fn every_error_line_names_the_file() {
+        let text = "Config(version: 1, backend: Sim((scene: \"seed-arc-145.ron\")),\n  tracker: (name: \"seed37\n 54,\"))";
+        let e = crate::load_str::<crate::Config>("c.ron", text).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains(r#"unknown tracker "seed37\n 54,""#), "{msg}");
+        for line in msg.lines() {
+            assert!(line.starts_with("c.ron:2:"), "{line:?} in {msg:?}");
+        }
     }
 }

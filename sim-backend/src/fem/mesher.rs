@@ -75,7 +75,7 @@ pub enum MeshError {
         needed_m: f64,
         room_m: f64,
     },
-    #[error("the mesh would have {0} nodes; refuse more than {MAX_NODES}")]
+    #[error("the mesh would have at least {0} nodes; refuse more than {MAX_NODES}")]
     TooLarge(usize),
 }
 
@@ -88,15 +88,20 @@ const MIN_BOX_FACTOR: f64 = 1.15;
 
 /// Positions 0 = s_0 < ... < s_n = len with the first step near `h0`, steps growing by at most
 /// `growth` up to `h_max`, scaled to end exactly at `len`. Empty when `len` is ~0.
-fn graded(len: f64, h0: f64, h_max: f64, growth: f64) -> Vec<f64> {
+/// More than `MAX_NODES` steps is refused (`TooLarge`): a growth barely above 1 from a tiny
+/// first step would otherwise loop and allocate for ever.
+fn graded(len: f64, h0: f64, h_max: f64, growth: f64) -> Result<Vec<f64>, MeshError> {
     if len <= 1e-12 {
-        return vec![0.0];
+        return Ok(vec![0.0]);
     }
     let h_max = h_max.max(h0);
     let mut steps = Vec::new();
     let mut h = h0.min(len);
     let mut sum = 0.0;
     while sum + 0.5 * h < len {
+        if steps.len() >= MAX_NODES {
+            return Err(MeshError::TooLarge(usize::MAX));
+        }
         steps.push(h);
         sum += h;
         h = (h * growth).min(h_max);
@@ -116,7 +121,7 @@ fn graded(len: f64, h0: f64, h_max: f64, growth: f64) -> Vec<f64> {
     if let Some(last) = out.last_mut() {
         *last = len;
     }
-    out
+    Ok(out)
 }
 
 /// Build the mesh of a `width_m` x `height_m` block (bottom at y = 0) with an optional feature.
@@ -140,9 +145,62 @@ pub fn mesh_block(
     {
         return Err(MeshError::BadDensity);
     }
+    check_size(width_m, height_m, feature, density)?;
     match feature {
         None => plain_block(width_m, height_m, d),
         Some(f) => feature_block(width_m, height_m, f, d),
+    }
+}
+
+/// Refuse, without allocating, a mesh certainly larger than [`MAX_NODES`]: a lower bound of
+/// its node count from the block, the feature and the density alone (the mesher's own guard
+/// then counts exactly). Validation of a model calls this too, so that a model file whose
+/// mesh cannot be built is refused when it is read. Sizes the mesher refuses for another
+/// reason (no room, bad layers) pass here.
+pub fn check_size(
+    width_m: f64,
+    height_m: f64,
+    feature: Option<&Feature>,
+    d: &Density,
+) -> Result<(), MeshError> {
+    let lower = match feature {
+        None => {
+            let s = d.near_size_m.max(d.far_size_m * 0.5);
+            let nx = (width_m / s).ceil().max(2.0);
+            let ny = (height_m / s).ceil().max(2.0);
+            (nx + 1.0) * (ny + 1.0)
+        }
+        Some(f) => {
+            let Some(r_out) = f.layers.last().map(|l| l.outer_radius_m) else {
+                return Ok(());
+            };
+            let cx = f.centre_x_m;
+            let cy = height_m - f.centre_depth_m;
+            let room = cx.min(width_m - cx).min(cy).min(height_m - cy);
+            if !(room.is_finite() && r_out.is_finite() && room >= MIN_BOX_FACTOR * r_out) {
+                return Ok(());
+            }
+            let half = if 0.85 * room >= MIN_BOX_FACTOR * r_out {
+                (BOX_FACTOR * r_out).min(0.85 * room)
+            } else {
+                room
+            };
+            let nq = (std::f64::consts::FRAC_PI_2 * r_out / d.near_size_m)
+                .ceil()
+                .max(4.0);
+            // Grid lines: the box's, plus each side's graded steps (none longer than hm).
+            let hm = d.far_size_m.max(2.0 * half / nq);
+            let steps = |len: f64| (len / hm - 0.5).max(0.0);
+            let lines_x = nq + 1.0 + steps(cx - half) + steps(width_m - cx - half);
+            let lines_y = nq + 1.0 + steps(cy - half) + steps(height_m - cy - half);
+            lines_x * lines_y
+        }
+    };
+    if lower <= MAX_NODES as f64 {
+        Ok(())
+    } else {
+        // Saturating: an infinite or huge bound reads as usize::MAX.
+        Err(MeshError::TooLarge(lower as usize))
     }
 }
 
@@ -275,10 +333,10 @@ fn feature_block(w: f64, h: f64, f: &Feature, d: &Density) -> Result<Mesh, MeshE
 
     // Tensor-grid lines: graded outward from the box.
     let side = |len: f64| graded(len, box_step, d.far_size_m, d.growth);
-    let left = side(cx - half);
-    let right = side(w - cx - half);
-    let below = side(cy - half);
-    let above = side(h - cy - half);
+    let left = side(cx - half)?;
+    let right = side(w - cx - half)?;
+    let below = side(cy - half)?;
+    let above = side(h - cy - half)?;
     let mut xs: Vec<f64> = left.iter().rev().map(|s| cx - half - s).collect();
     let i0 = xs.len() - 1;
     xs.extend((1..=nq).map(|k| cx - half + box_step * k as f64));
@@ -324,10 +382,12 @@ fn feature_block(w: f64, h: f64, f: &Feature, d: &Density) -> Result<Mesh, MeshE
     let gap = half - r_out;
     // First blend layer about as thick as the circumferential size: near-square elements.
     let h0 = circ(r_out);
-    let blend = graded(gap, h0, box_step, d.growth);
+    let blend = graded(gap, h0, box_step, d.growth)?;
     let n_blend = blend.len() - 1;
     estimate_guard(
-        xs.len() * ys.len() + n_around * (levels.len() + n_blend + 1) + (nq + 1) * (nq + 1),
+        (xs.len().saturating_mul(ys.len()))
+            .saturating_add(n_around.saturating_mul(levels.len() + n_blend + 1))
+            .saturating_add((nq + 1).saturating_mul(nq + 1)),
         1,
     )?;
 
@@ -649,12 +709,49 @@ mod tests {
     fn plain_block_and_grading() {
         let m = mesh_block(0.08, 0.03, None, &density()).unwrap();
         check_mesh(&m, 0.08, 0.03);
-        let g = graded(1.0, 0.01, 0.2, 1.2);
+        let g = graded(1.0, 0.01, 0.2, 1.2).unwrap();
         assert_eq!(g[0], 0.0);
         assert_eq!(*g.last().unwrap(), 1.0);
         for w in g.windows(3) {
             let r = (w[2] - w[1]) / (w[1] - w[0]);
             assert!(r <= 1.2 + 1e-9, "growth {r}");
         }
+    }
+
+    /// Found with the `fem_model_loader` fuzz target: sizes that the mesher must refuse
+    /// quickly, without overflowing or allocating first.
+    #[test]
+    fn huge_meshes_are_refused_before_anything_is_allocated() {
+        assert!(matches!(
+            mesh_block(1e30, 0.03, None, &density()),
+            Err(MeshError::TooLarge(_))
+        ));
+        let tube = |centre_x_m: f64, outer: f64| Feature {
+            centre_x_m,
+            centre_depth_m: 0.015,
+            lumen_radius_m: Some(0.8 * outer),
+            layers: vec![Layer {
+                outer_radius_m: outer,
+                region: 1,
+            }],
+        };
+        assert!(matches!(
+            mesh_block(1e5, 0.03, Some(&tube(5e4, 0.005)), &density()),
+            Err(MeshError::TooLarge(_))
+        ));
+        // A tiny tube graded out with a growth barely above 1: every step the same tiny
+        // size, far too many to list.
+        let creeping = Density {
+            growth: 1.0 + 1e-12,
+            ..density()
+        };
+        assert!(matches!(
+            mesh_block(0.08, 0.03, Some(&tube(0.04, 1e-9)), &creeping),
+            Err(MeshError::TooLarge(_))
+        ));
+        assert_eq!(
+            check_size(0.08, 0.03, Some(&tube(0.04, 0.005)), &density()),
+            Ok(())
+        );
     }
 }

@@ -23,7 +23,7 @@ use config::{Validate, Validator};
 
 use super::contact::Tip;
 use super::material::{Analysis, Material};
-use super::mesher::{Density, Feature, Layer};
+use super::mesher::{Density, Feature, Layer, check_size};
 
 /// The model file format version this build reads.
 pub const MODEL_VERSION: u32 = 1;
@@ -262,6 +262,7 @@ fn validate_material(v: &mut Validator, field: &str, m: &Material) {
 
 impl Validate for ModelFile {
     fn validate(&self, v: &mut Validator) {
+        let problems_before = v.problem_count();
         v.check(
             self.version == MODEL_VERSION,
             "version",
@@ -395,6 +396,18 @@ impl Validate for ModelFile {
                 format!("must be at most {MAX_REFINE}"),
             );
         });
+        // Once every size is sane: a mesh beyond the mesher's node limit is refused here,
+        // when the file is read, not after minutes of meshing.
+        if v.problem_count() == problems_before
+            && let Err(e) = check_size(
+                self.block.width_m,
+                self.block.height_m,
+                self.feature().as_ref(),
+                &self.mesh.density(0),
+            )
+        {
+            v.problem("mesh", e.to_string());
+        }
     }
 }
 
@@ -460,5 +473,31 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(msg.contains(":15:") && msg.contains("times_s"), "{msg}");
+    }
+
+    /// Found with the `fem_model_loader` fuzz target (docs/fuzzing.md): a model whose block
+    /// is far larger than its mesh size passed validation, then the mesher overflowed
+    /// (`nx + 1` on a saturated count: a panic in debug builds, a huge allocation in
+    /// release) or allocated gigabytes of grid lines before its node limit refused it.
+    #[test]
+    fn a_mesh_beyond_the_node_limit_is_refused_when_read() {
+        let plain = r#"FemModel(version: 1, name: "wide", analysis: PlaneStress,
+            block: (width_m: 1e30, height_m: 0.03), tissue: (e_pa: 15e3, nu: 0.45),
+            load: Platen(indent_m: 0.0075))"#;
+        let long = GOOD
+            .replace("width_m: 0.08", "width_m: 1e5")
+            .replace("centre_x_m: 0.04", "centre_x_m: 5e4");
+        for (name, text) in [("wide.ron", plain), ("long.ron", long.as_str())] {
+            let msg = config::load_str::<ModelFile>(name, text)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                msg.starts_with(name) && msg.contains("field `mesh`") && msg.contains("3000000"),
+                "{msg}"
+            );
+        }
+        // The shipped sizes still pass, up to the largest refinement.
+        let fine = GOOD.replace("times_s", "mesh: (refine: 5),\n    times_s");
+        config::load_str::<ModelFile>("fine.ron", &fine).unwrap();
     }
 }

@@ -211,3 +211,42 @@ fn the_new_physics_options_are_checked() {
     assert_eq!(s.placed_by, Placing::Eye);
     assert!(matches!(s.artery.kernel, PressureKernel::Applanation));
 }
+
+/// Found with the `scene_loader` fuzz target (docs/fuzzing.md; the crash input was
+/// tight-arc-30.ron with `chord_centre: (x_m: NaN, ...)`): an arc's chord centre was never
+/// checked, so a NaN passed validation and every point of the path was NaN. And a spline's
+/// sampling step had no lower bound: a tiny one would build the path from billions of
+/// pieces (found reading the path code while fixing the first).
+#[test]
+fn an_arc_centre_and_a_spline_step_are_checked() {
+    let arc = |centre: &str| {
+        minimal("").replace(
+            "Straight(start: (x_m: 0.0, z_m: 0.0), heading_rad: 0.0, length_m: 0.1)",
+            &format!("Arc(radius_m: 0.03, length_m: 0.15, chord_centre: {centre})"),
+        )
+    };
+    for (centre, field) in [
+        ("(x_m: NaN, z_m: 0.0393)", "artery.path.chord_centre.x_m"),
+        ("(x_m: 0.0, z_m: inf)", "artery.path.chord_centre.z_m"),
+    ] {
+        let e = config::load_str::<Scene>("bad.ron", &arc(centre)).unwrap_err();
+        assert!(e.problems.iter().any(|p| p.field == field), "{e}");
+        assert!(e.to_string().starts_with("bad.ron:5:"), "{e}");
+    }
+    let s: Scene = config::load_str("t.ron", &arc("(x_m: 0.0, z_m: 0.0393)")).unwrap();
+    let path = ArteryPath::from_spec(&s.artery.path).unwrap();
+    let (p, _) = path.at(0.5 * path.length_m());
+    assert!(p.is_finite());
+
+    let spline = minimal("").replace(
+        "Straight(start: (x_m: 0.0, z_m: 0.0), heading_rad: 0.0, length_m: 0.1)",
+        "Spline(points: [(x_m: -0.05, z_m: 0.0), (x_m: 0.0, z_m: 0.01), (x_m: 0.05, z_m: 0.0)], sample_m: 1e-12)",
+    );
+    let e = config::load_str::<Scene>("bad.ron", &spline).unwrap_err();
+    assert!(
+        e.problems.iter().any(|p| p.field == "artery.path.sample_m"),
+        "{e}"
+    );
+    let ok = spline.replace("sample_m: 1e-12", "sample_m: 0.001");
+    let _: Scene = config::load_str("t.ron", &ok).unwrap();
+}

@@ -187,9 +187,17 @@ impl Validate for ArterySpec {
 fn validate_path(spec: &PathSpec, v: &mut Validator) {
     match spec {
         PathSpec::Arc {
-            radius_m, length_m, ..
+            radius_m,
+            length_m,
+            chord_centre,
+            ..
+        } => {
+            v.in_range("radius_m", *radius_m, 1e-3, 10.0);
+            v.in_range("length_m", *length_m, 1e-3, 2.0);
+            v.in_range("chord_centre.x_m", chord_centre.x_m, -1.0, 1.0);
+            v.in_range("chord_centre.z_m", chord_centre.z_m, -1.0, 1.0);
         }
-        | PathSpec::SCurve { radius_m, length_m } => {
+        PathSpec::SCurve { radius_m, length_m } => {
             v.in_range("radius_m", *radius_m, 1e-3, 10.0);
             v.in_range("length_m", *length_m, 1e-3, 2.0);
         }
@@ -207,6 +215,14 @@ fn validate_path(spec: &PathSpec, v: &mut Validator) {
             for (i, p) in points.iter().enumerate() {
                 v.in_range(&format!("points[{i}].x_m"), p.x_m, -1.0, 1.0);
                 v.in_range(&format!("points[{i}].z_m"), p.z_m, -1.0, 1.0);
+            }
+            // A tiny sampling step would make the path from billions of pieces.
+            if let PathSpec::Spline {
+                sample_m: Some(step),
+                ..
+            } = spec
+            {
+                v.in_range("sample_m", *step, 1e-5, 0.01);
             }
         }
     }
