@@ -138,6 +138,8 @@ pub struct Bench {
     /// Normal force of the ideal robot's contact (the added mass, or 3 N), N.
     ideal_normal_n: f64,
     ideal_indentation_m: f64,
+    /// The tissue's breathing motion, when the scene has it.
+    breathing: Option<crate::scene::Breathing>,
 }
 
 impl Bench {
@@ -226,6 +228,7 @@ impl Bench {
             seq: 0,
             ideal_normal_n,
             ideal_indentation_m: ideal_normal_n / tissue.contact_stiffness_n_per_m,
+            breathing: tissue.breathing,
         })
     }
 
@@ -321,7 +324,18 @@ impl Bench {
         None
     }
 
+    /// The sensor and its contact in the frame of the tissue as it lies now (moved back by
+    /// the breathing displacement, so the artery and the lumps stay where the scene says).
     fn contact_now(&self) -> (SurfacePoint, Contact) {
+        let (sensor, mut contact) = self.contact_in_bench();
+        let Some(b) = self.breathing else {
+            return (sensor, contact);
+        };
+        contact.patch_centre = contact.patch_centre.map(|c| b.to_rest(c, self.t_s));
+        (b.to_rest(sensor, self.t_s), contact)
+    }
+
+    fn contact_in_bench(&self) -> (SurfacePoint, Contact) {
         match &self.arm {
             Arm::Dynamic(a) => (
                 a.sensor,

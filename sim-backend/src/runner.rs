@@ -508,7 +508,12 @@ impl Lockstep {
         }
         let t_end = self.now();
         let mut located = std::mem::take(&mut self.located);
-        let lateral = TrialResult::score(self.bench.path(), &mut located);
+        let lateral = TrialResult::score_moving(
+            self.bench.path(),
+            scene.tissue.breathing.as_ref(),
+            &mut located,
+        );
+        let false_points = crate::trial::false_points(&located);
         let tracked_length_m = located
             .windows(2)
             .map(|w| (w[1].x_m - w[0].x_m).hypot(w[1].z_m - w[0].z_m))
@@ -534,6 +539,7 @@ impl Lockstep {
             end_reason: outcome.end_reason,
             detail: outcome.detail,
             lateral_error_m: lateral,
+            false_points,
             tracked_length_m,
             simulated_s: t_end,
             wall_s: 0.0,

@@ -6,7 +6,11 @@ use control::frames::SurfacePoint;
 use control::types::TactileFrame;
 use serde::Serialize;
 
-use crate::scene::ArteryPath;
+use crate::scene::{ArteryPath, Breathing};
+
+/// A located point farther than this from the true artery is a false point: the tracker
+/// reported a place it did not feel, m.
+pub const FALSE_POINT_M: f64 = 0.002;
 
 /// One artery point the tracker reported.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -29,12 +33,15 @@ pub struct LocatedSample {
     pub along_path_m: f64,
 }
 
-/// Mean and SD of the signed lateral offsets, and the largest absolute one.
+/// Mean and SD of the signed lateral offsets, and the 95th percentile and the largest of
+/// the absolute ones.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct LateralError {
     pub mean: f64,
     pub sd: f64,
     pub max: f64,
+    /// The 95th percentile of the absolute offsets (nearest rank), m.
+    pub p95: f64,
     /// Points the statistics cover (the autonomous ones, not the manual placements).
     pub points: usize,
 }
@@ -48,6 +55,7 @@ impl LateralError {
                 mean: 0.0,
                 sd: 0.0,
                 max: 0.0,
+                p95: 0.0,
                 points: 0,
             };
         }
@@ -62,9 +70,21 @@ impl LateralError {
             mean,
             sd,
             max,
+            p95: abs_percentile(errors, 0.95),
             points: n,
         }
     }
+}
+
+/// The `q` quantile (nearest rank) of the absolute values of `values`; 0 when empty.
+pub fn abs_percentile(values: &[f64], q: f64) -> f64 {
+    let mut abs: Vec<f64> = values.iter().map(|e| e.abs()).collect();
+    if abs.is_empty() {
+        return 0.0;
+    }
+    abs.sort_by(f64::total_cmp);
+    let rank = (q * abs.len() as f64).ceil() as usize;
+    abs[rank.clamp(1, abs.len()) - 1]
 }
 
 /// One trial's result.
@@ -93,6 +113,9 @@ pub struct TrialResult {
     pub detail: Option<String>,
     /// Lateral error of the autonomous points from the true path, m.
     pub lateral_error_m: LateralError,
+    /// Located points (the manual placements' seed points included) more than
+    /// [`FALSE_POINT_M`] from the true path.
+    pub false_points: usize,
     /// Path length followed along the located points from the first placement, m.
     pub tracked_length_m: f64,
     /// Simulated seconds of the whole trial, placements included.
@@ -113,9 +136,21 @@ pub struct TrialResult {
 impl TrialResult {
     /// Score located points against the true path.
     pub fn score(path: &ArteryPath, points: &mut [LocatedSample]) -> LateralError {
+        Self::score_moving(path, None, points)
+    }
+
+    /// Score located points against the true path where it lay at each point's time (the
+    /// tissue moves with `breathing`).
+    pub fn score_moving(
+        path: &ArteryPath,
+        breathing: Option<&Breathing>,
+        points: &mut [LocatedSample],
+    ) -> LateralError {
         let mut errors = Vec::with_capacity(points.len());
         for p in points.iter_mut() {
-            let n = path.nearest(SurfacePoint::new(p.x_m, p.z_m));
+            let at = SurfacePoint::new(p.x_m, p.z_m);
+            let at = breathing.map_or(at, |b| b.to_rest(at, p.t_s));
+            let n = path.nearest(at);
             p.lateral_error_m = n.offset_m;
             p.along_path_m = n.s_m;
             if !p.seed {
@@ -124,6 +159,14 @@ impl TrialResult {
         }
         LateralError::of(&errors)
     }
+}
+
+/// Located points in `points` farther than [`FALSE_POINT_M`] from the true path (scored).
+pub fn false_points(points: &[LocatedSample]) -> usize {
+    points
+        .iter()
+        .filter(|p| p.lateral_error_m.abs() > FALSE_POINT_M)
+        .count()
 }
 
 /// Summary over several trials.
@@ -172,6 +215,10 @@ mod tests {
         assert!(e.mean.abs() < 1e-15);
         assert!((e.sd - (14e-6f64 / 2.0).sqrt()).abs() < 1e-12);
         assert_eq!(e.max, 0.003);
+        assert_eq!(e.p95, 0.003);
+        let many: Vec<f64> = (1..=100).map(|i| -(i as f64)).collect();
+        assert_eq!(LateralError::of(&many).p95, 95.0);
+        assert_eq!(abs_percentile(&[], 0.95), 0.0);
         assert_eq!(LateralError::of(&[]).points, 0);
         assert_eq!(LateralError::of(&[0.5]).sd, 0.0);
     }

@@ -1,10 +1,14 @@
-//! `pulsetrack bench [--scenes GLOB] [--trackers LIST] [--trials N] [--seed S] [--json]
-//! [--plot DIR] [--config FILE]`: a Monte Carlo of whole lockstep trials over scenes and
-//! trackers, on every core, reported as speed against error.
+//! `pulsetrack bench [--scenes GLOB] [--families GLOB] [--trackers LIST] [--trials N]
+//! [--seed S] [--json] [--plot DIR] [--dump-scene DIR] [--config FILE]`: a Monte Carlo of
+//! whole lockstep trials over scenes (or scene families) and trackers, on every core,
+//! reported as speed against error.
 //!
 //! Every (scene, tracker, trial) is an independent job whose seed is `S + trial`: the same
 //! seeds for every scene and tracker (paired comparisons), and results that do not depend
-//! on which thread ran what. Jobs run on rayon's pool; their results are gathered in job
+//! on which thread ran what. A family's trial `i` runs on the scene the family draws from
+//! seed `S + i` (the same scene for every tracker); `--dump-scene DIR` writes each drawn
+//! scene as `DIR/<family>-<seed>.ron`, which `pulsetrack sim --scene FILE --seed <seed>`
+//! reruns exactly. Jobs run on rayon's pool; their results are gathered in job
 //! order. Progress goes to stderr; with `--json` stdout is one document (docs/BENCHMARKS.md
 //! describes its fields), otherwise a table. `--plot DIR` draws, per scene, time against
 //! error for every tracker and speed setting (the speed-against-error front).
@@ -23,6 +27,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use config::Config;
 use rayon::prelude::*;
 use serde::Serialize;
+use sim::family::LoadedFamily;
 use sim::scene::Scene;
 use sim::trial::{LateralError, TrialResult};
 
@@ -35,9 +40,17 @@ const REFERENCE_LENGTH_M: f64 = 0.26;
 pub struct Args {
     /// Scenes: comma-separated glob patterns over the shipped scene names (`seed-arc-*`) or
     /// over files (`config/scenes/*.ron`; a pattern with a `/` matches files in that
-    /// directory).
-    #[arg(long, default_value = "seed-arc-*,seed-s-curve")]
-    pub scenes: String,
+    /// directory). Default, when no family is given either: `seed-arc-*,seed-s-curve`.
+    #[arg(long)]
+    pub scenes: Option<String>,
+    /// Scene families, as `--scenes` names scenes (`sinusoids`, `config/families/*.ron`):
+    /// each trial runs on the scene the family draws from the trial's seed.
+    #[arg(long, alias = "family")]
+    pub families: Option<String>,
+    /// Write every scene drawn from a family into this directory as an ordinary scene file
+    /// (`<family>-<seed>.ron`).
+    #[arg(long)]
+    pub dump_scene: Option<PathBuf>,
     /// Trackers: comma-separated names, each optionally with a speed setting in mm/s
     /// (`seed2002,beatslide@5,beatslide@10`).
     #[arg(long, default_value = "seed2002,beatslide")]
@@ -72,7 +85,11 @@ struct TrackerSpec {
 /// One row of the report: a scene and a tracker over all trials.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Row {
+    /// The scene's name, or the family's for a row of drawn scenes.
     pub scene: String,
+    /// The family the trials' scenes were drawn from (`<family>-<seed>` each); null for a
+    /// fixed scene.
+    pub family: Option<String>,
     /// The tracker as given (`beatslide@10`).
     pub tracker: String,
     pub trials: usize,
@@ -83,6 +100,13 @@ pub struct Row {
     pub error_mean_m: Option<f64>,
     pub error_sd_m: Option<f64>,
     pub error_max_m: Option<f64>,
+    /// The 95th percentile (nearest rank) and the largest of the absolute lateral error of
+    /// the same points, m; null when there are none.
+    pub lateral_error_p95_m: Option<f64>,
+    pub lateral_error_max_m: Option<f64>,
+    /// Located points of all trials (the placements' seed points included) more than
+    /// 2 mm (`sim::trial::FALSE_POINT_M`) from the true artery.
+    pub false_points: usize,
     /// Heartbeats (pulse cycles) per trial, from the start of autonomous tracking.
     pub beats_mean: f64,
     /// Simulated seconds of autonomous tracking per trial.
@@ -124,14 +148,63 @@ pub fn run(args: &Args) -> ExitCode {
     }
 }
 
+/// Where a row's trials get their scenes.
+#[derive(Debug, Clone)]
+enum Source {
+    Scene(Box<Scene>),
+    /// A family and the scene it drew for each trial, in trial order.
+    Family {
+        family: Box<LoadedFamily>,
+        drawn: Vec<Scene>,
+    },
+}
+
+impl Source {
+    fn name(&self) -> &str {
+        match self {
+            Source::Scene(s) => &s.name,
+            Source::Family { family, .. } => &family.family.name,
+        }
+    }
+
+    fn scene(&self, trial: usize) -> Option<&Scene> {
+        match self {
+            Source::Scene(s) => Some(s),
+            Source::Family { drawn, .. } => drawn.get(trial),
+        }
+    }
+}
+
 fn run_inner(args: &Args) -> Result<(), String> {
     if args.trials == 0 {
         return Err("--trials must be at least 1".into());
     }
     let config = load_config(args.config.as_deref())?;
-    let scenes = select_scenes(&args.scenes)?;
+    let mut sources = Vec::new();
+    let scene_patterns = match (&args.scenes, &args.families) {
+        (Some(p), _) => Some(p.as_str()),
+        (None, None) => Some("seed-arc-*,seed-s-curve"),
+        (None, Some(_)) => None,
+    };
+    if let Some(p) = scene_patterns {
+        sources.extend(
+            select_scenes(p)?
+                .into_iter()
+                .map(|s| Source::Scene(Box::new(s))),
+        );
+    }
+    if let Some(p) = &args.families {
+        for f in select_families(p)? {
+            sources.push(draw_family(f, args.trials, args.seed)?);
+        }
+    }
+    if let Some(dir) = &args.dump_scene {
+        for f in dump_scenes(&sources, args.seed, dir)? {
+            eprintln!("wrote {}", f.display());
+        }
+    }
     let trackers = parse_trackers(&args.trackers)?;
-    let report = bench(&config, &scenes, &trackers, args.trials, args.seed, true)?;
+    let report = bench(&config, &sources, &trackers, args.trials, args.seed, true)?;
     if let Some(dir) = &args.plot {
         for f in plot_fronts(&report, dir).map_err(|e| e.to_string())? {
             eprintln!("wrote {}", f.display());
@@ -146,10 +219,44 @@ fn run_inner(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
+/// The family's scenes for trials `0..trials` (seeds `seed + i`).
+fn draw_family(family: LoadedFamily, trials: u32, seed: u64) -> Result<Source, String> {
+    let drawn = (0..trials)
+        .map(|i| family.draw(seed.wrapping_add(u64::from(i))))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(Source::Family {
+        family: Box::new(family),
+        drawn,
+    })
+}
+
+/// Write every drawn scene into `dir`; returns the files written.
+fn dump_scenes(sources: &[Source], seed: u64, dir: &Path) -> Result<Vec<PathBuf>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("--dump-scene {}: {e}", dir.display()))?;
+    let mut files = Vec::new();
+    for source in sources {
+        let Source::Family { family, drawn } = source else {
+            continue;
+        };
+        for (i, scene) in drawn.iter().enumerate() {
+            let trial_seed = seed.wrapping_add(i as u64);
+            let comment = format!(
+                "pulsetrack scene drawn from family `{}` with seed {trial_seed}.\nRerun the bench's trial: pulsetrack sim --scene FILE --seed {trial_seed} --tracker NAME",
+                family.family.name
+            );
+            let text = sim::scene::to_ron(scene, &comment)?;
+            let file = dir.join(format!("{}.ron", scene.name));
+            std::fs::write(&file, text).map_err(|e| format!("{}: {e}", file.display()))?;
+            files.push(file);
+        }
+    }
+    Ok(files)
+}
+
 /// Run every trial of every scene and tracker (in parallel) and summarize.
 fn bench(
     config: &Config,
-    scenes: &[Scene],
+    sources: &[Source],
     trackers: &[TrackerSpec],
     trials: u32,
     seed: u64,
@@ -169,7 +276,7 @@ fn bench(
             .map_err(|e| format!("tracker `{}`: {e}", t.label))?;
         configs.push(c);
     }
-    let jobs: Vec<(usize, usize, u32)> = (0..scenes.len())
+    let jobs: Vec<(usize, usize, u32)> = (0..sources.len())
         .flat_map(|s| (0..trackers.len()).flat_map(move |t| (0..trials).map(move |i| (s, t, i))))
         .collect();
     let done = AtomicUsize::new(0);
@@ -178,9 +285,11 @@ fn bench(
         .par_iter()
         .map(|&(s, t, i)| {
             let trial_seed = seed.wrapping_add(u64::from(i));
-            let result =
-                sim::runner::run_trial(&scenes[s], &configs[t], &trackers[t].name, trial_seed)
-                    .map_err(|e| format!("{} with {}: {e}", scenes[s].name, trackers[t].label));
+            let scene = sources[s]
+                .scene(i as usize)
+                .ok_or_else(|| format!("{}: no scene drawn for trial {i}", sources[s].name()))?;
+            let result = sim::runner::run_trial(scene, &configs[t], &trackers[t].name, trial_seed)
+                .map_err(|e| format!("{} with {}: {e}", scene.name, trackers[t].label));
             let n = done.fetch_add(1, Ordering::Relaxed) + 1;
             if progress {
                 let end = result
@@ -189,15 +298,15 @@ fn bench(
                     .to_string();
                 eprintln!(
                     "bench {n}/{total}: {} {} seed {trial_seed}: {end}",
-                    scenes[s].name, trackers[t].label
+                    scene.name, trackers[t].label
                 );
             }
             result
         })
         .collect();
-    let mut rows = Vec::with_capacity(scenes.len() * trackers.len());
+    let mut rows = Vec::with_capacity(sources.len() * trackers.len());
     let mut it = results.into_iter();
-    for scene in scenes {
+    for source in sources {
         for (t, spec) in trackers.iter().enumerate() {
             let mut trial_results = Vec::with_capacity(trials as usize);
             for _ in 0..trials {
@@ -207,13 +316,18 @@ fn bench(
             let speed = spec
                 .speed_m_s
                 .or_else(|| configs[t].tracker.params.speed(&spec.name));
-            rows.push(summarize(scene, spec, speed, &trial_results));
+            rows.push(summarize(source, spec, speed, &trial_results));
         }
     }
     Ok(Report { seed, trials, rows })
 }
 
-fn summarize(scene: &Scene, spec: &TrackerSpec, speed: Option<f64>, trials: &[TrialResult]) -> Row {
+fn summarize(
+    source: &Source,
+    spec: &TrackerSpec,
+    speed: Option<f64>,
+    trials: &[TrialResult],
+) -> Row {
     let n = trials.len().max(1) as f64;
     let errors: Vec<f64> = trials
         .iter()
@@ -226,10 +340,18 @@ fn summarize(scene: &Scene, spec: &TrackerSpec, speed: Option<f64>, trials: &[Tr
         .collect();
     let pooled = LateralError::of(&errors);
     let completed: Vec<&TrialResult> = trials.iter().filter(|t| t.completed).collect();
+    // Each trial's own scene's requested length (a family's differ from trial to trial).
+    let requested = |i: usize| {
+        source
+            .scene(i)
+            .map_or(REFERENCE_LENGTH_M, |s| s.track.length_m)
+    };
     let beats_per_26cm_mean = (!completed.is_empty()).then(|| {
-        completed
+        trials
             .iter()
-            .map(|t| t.beats as f64 * REFERENCE_LENGTH_M / scene.track.length_m)
+            .enumerate()
+            .filter(|(_, t)| t.completed)
+            .map(|(i, t)| t.beats as f64 * REFERENCE_LENGTH_M / requested(i))
             .sum::<f64>()
             / completed.len() as f64
     });
@@ -243,13 +365,17 @@ fn summarize(scene: &Scene, spec: &TrackerSpec, speed: Option<f64>, trials: &[Tr
     let located = pooled.points > 0;
     let mean = |f: &dyn Fn(&TrialResult) -> f64| trials.iter().map(f).sum::<f64>() / n;
     Row {
-        scene: scene.name.clone(),
+        scene: source.name().to_string(),
+        family: matches!(source, Source::Family { .. }).then(|| source.name().to_string()),
         tracker: spec.label.clone(),
         trials: trials.len(),
         completion_rate: completed.len() as f64 / n,
         error_mean_m: located.then_some(pooled.mean),
         error_sd_m: located.then_some(pooled.sd),
         error_max_m: located.then_some(pooled.max),
+        lateral_error_p95_m: located.then_some(pooled.p95),
+        lateral_error_max_m: located.then_some(pooled.max),
+        false_points: trials.iter().map(|t| t.false_points).sum(),
         beats_mean: mean(&|t| t.beats as f64),
         duration_s_mean: mean(&|t| t.duration_s),
         backtracks_mean: mean(&|t| f64::from(t.backtracks)),
@@ -303,6 +429,23 @@ fn parse_trackers(list: &str) -> Result<Vec<TrackerSpec>, String> {
 /// Scenes matching comma-separated glob patterns, in the order of the patterns (each
 /// pattern's matches sorted by name); a scene matched twice is run once.
 fn select_scenes(patterns: &str) -> Result<Vec<Scene>, String> {
+    select("--scenes", patterns, sim::scene::shipped_names())?
+        .iter()
+        .map(|n| sim::scene::load(n, None).map_err(|e| e.to_string()))
+        .collect()
+}
+
+/// Families matching comma-separated glob patterns, as [`select_scenes`].
+fn select_families(patterns: &str) -> Result<Vec<LoadedFamily>, String> {
+    select("--families", patterns, &sim::family::shipped_family_names())?
+        .iter()
+        .map(|n| sim::family::load(n, None).map_err(|e| e.to_string()))
+        .collect()
+}
+
+/// Names (shipped) or files matching comma-separated glob patterns, in the order of the
+/// patterns (each pattern's matches sorted), each once.
+fn select(option: &str, patterns: &str, shipped: &[&str]) -> Result<Vec<String>, String> {
     let mut names: Vec<String> = Vec::new();
     for pattern in patterns.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         let mut matched: Vec<String> = if pattern.contains('/') {
@@ -312,12 +455,12 @@ fn select_scenes(patterns: &str) -> Result<Vec<Scene>, String> {
             let file_pattern = path
                 .file_name()
                 .and_then(|f| f.to_str())
-                .ok_or_else(|| format!("--scenes: `{pattern}` names no file"))?;
+                .ok_or_else(|| format!("{option}: `{pattern}` names no file"))?;
             let entries = std::fs::read_dir(dir)
-                .map_err(|e| format!("--scenes: cannot read {}: {e}", dir.display()))?;
+                .map_err(|e| format!("{option}: cannot read {}: {e}", dir.display()))?;
             let mut files = Vec::new();
             for entry in entries {
-                let entry = entry.map_err(|e| format!("--scenes: {}: {e}", dir.display()))?;
+                let entry = entry.map_err(|e| format!("{option}: {}: {e}", dir.display()))?;
                 if let Some(name) = entry.file_name().to_str()
                     && glob_match(file_pattern, name)
                     && entry.path().is_file()
@@ -327,7 +470,7 @@ fn select_scenes(patterns: &str) -> Result<Vec<Scene>, String> {
             }
             files
         } else {
-            sim::scene::shipped_names()
+            shipped
                 .iter()
                 .filter(|n| {
                     glob_match(pattern, n) || glob_match(pattern, n.trim_end_matches(".ron"))
@@ -337,8 +480,8 @@ fn select_scenes(patterns: &str) -> Result<Vec<Scene>, String> {
         };
         if matched.is_empty() {
             return Err(format!(
-                "--scenes: `{pattern}` matches no scene (shipped: {})",
-                sim::scene::shipped_names().join(", ")
+                "{option}: `{pattern}` matches nothing (shipped: {})",
+                shipped.join(", ")
             ));
         }
         matched.sort();
@@ -348,10 +491,7 @@ fn select_scenes(patterns: &str) -> Result<Vec<Scene>, String> {
             }
         }
     }
-    names
-        .iter()
-        .map(|n| sim::scene::load(n, None).map_err(|e| e.to_string()))
-        .collect()
+    Ok(names)
 }
 
 /// Shell-style glob: `*` any run of characters, `?` any one, everything else literal.
@@ -385,13 +525,15 @@ fn print_table(report: &Report) {
         report.seed + u64::from(report.trials) - 1
     );
     outln!(
-        "{:<20} {:<16} {:>6} {:>8} {:>8} {:>8} {:>7} {:>7} {:>8} {:>6}",
+        "{:<22} {:<16} {:>6} {:>8} {:>8} {:>8} {:>8} {:>6} {:>7} {:>7} {:>8} {:>6}",
         "scene",
         "tracker",
         "done",
         "mean mm",
         "sd mm",
+        "p95 mm",
         "max mm",
+        "false",
         "beats",
         "b/26cm",
         "track s",
@@ -399,13 +541,15 @@ fn print_table(report: &Report) {
     );
     for r in &report.rows {
         outln!(
-            "{:<20} {:<16} {:>5.0}% {:>8} {:>8} {:>8} {:>7.1} {:>7} {:>8.1} {:>6.2}",
+            "{:<22} {:<16} {:>5.0}% {:>8} {:>8} {:>8} {:>8} {:>6} {:>7.1} {:>7} {:>8.1} {:>6.2}",
             r.scene,
             r.tracker,
             100.0 * r.completion_rate,
             millimetres(r.error_mean_m),
             millimetres(r.error_sd_m),
-            millimetres(r.error_max_m),
+            millimetres(r.lateral_error_p95_m),
+            millimetres(r.lateral_error_max_m),
+            r.false_points,
             r.beats_mean,
             r.beats_per_26cm_mean
                 .map_or("-".to_string(), |b| format!("{b:.1}")),
@@ -504,6 +648,13 @@ mod tests {
         assert!(select_scenes("/nonexistent-dir/*.ron").is_err());
     }
 
+    fn fixed(scenes: Vec<Scene>) -> Vec<Source> {
+        scenes
+            .into_iter()
+            .map(|s| Source::Scene(Box::new(s)))
+            .collect()
+    }
+
     fn small_config() -> Config {
         load_config(None).expect("shipped config")
     }
@@ -513,7 +664,7 @@ mod tests {
     #[test]
     fn no_located_point_gives_null_errors() {
         let config = small_config();
-        let scenes = select_scenes("seed-radial-wrist").expect("shipped");
+        let scenes = fixed(select_scenes("seed-radial-wrist").expect("shipped"));
         let trackers = parse_trackers("seed2002").expect("valid");
         let report = bench(&config, &scenes, &trackers, 1, 1, false).expect("runs");
         let row = &report.rows[0];
@@ -532,7 +683,7 @@ mod tests {
     #[test]
     fn json_schema_and_determinism() {
         let config = small_config();
-        let scenes = select_scenes("seed-arc-220").expect("shipped");
+        let scenes = fixed(select_scenes("seed-arc-220").expect("shipped"));
         let trackers = parse_trackers("seed2002,beatslide@15").expect("valid");
         let strip = |mut r: Report| {
             for row in &mut r.rows {
@@ -563,6 +714,9 @@ mod tests {
                 "beats_mean",
                 "duration_s_mean",
                 "backtracks_mean",
+                "lateral_error_p95_m",
+                "lateral_error_max_m",
+                "false_points",
             ] {
                 assert!(row.get(key).is_some(), "missing {key} in {row}");
             }
@@ -573,5 +727,51 @@ mod tests {
         assert_eq!(rows[1]["speed_m_s"], 0.015);
         let other = strip(bench(&config, &scenes, &trackers, 2, 6, false).expect("runs"));
         assert_ne!(a, other, "another seed gives other trials");
+    }
+
+    /// A family's trials run on the scenes it draws from their seeds; each dumped scene is
+    /// an ordinary scene file that reruns the bench's trial exactly.
+    #[test]
+    fn family_rows_and_dumped_scenes_reproduce_their_trials() {
+        let config = small_config();
+        let families = select_families("bends").expect("shipped");
+        assert!(select_families("no-such-*").is_err());
+        let mut family = families.into_iter().next().expect("one");
+        // Short tracks keep the test fast.
+        family.family.track_length_m = sim::family::Interval(0.03, 0.04);
+        let source = draw_family(family, 2, 3).expect("draws");
+        let sources = vec![source];
+        let trackers = parse_trackers("beatslide").expect("valid");
+        let report = bench(&config, &sources, &trackers, 2, 3, false).expect("runs");
+        let row = &report.rows[0];
+        assert_eq!(row.scene, "bends");
+        assert_eq!(row.family.as_deref(), Some("bends"));
+        assert_eq!(row.trials, 2);
+        let json = serde_json::to_value(row).expect("serializes");
+        assert!(json.get("false_points").is_some(), "{json}");
+        let dir = std::env::temp_dir().join(format!("pulsetrack-dump-{}", std::process::id()));
+        let files = dump_scenes(&sources, 3, &dir).expect("dumps");
+        assert_eq!(files.len(), 2);
+        let Source::Family { drawn, .. } = &sources[0] else {
+            panic!("a family");
+        };
+        for (i, file) in files.iter().enumerate() {
+            assert!(
+                file.ends_with(format!("bends-{}.ron", 3 + i)),
+                "{}",
+                file.display()
+            );
+            let loaded = sim::scene::load(file.to_str().expect("utf-8"), None).expect("loads");
+            assert_eq!(&loaded, &drawn[i]);
+            let seed = 3 + i as u64;
+            let strip = |mut t: TrialResult| {
+                t.wall_s = 0.0;
+                serde_json::to_string(&t).expect("serializes")
+            };
+            let a = sim::runner::run_trial(&drawn[i], &config, "beatslide", seed).expect("runs");
+            let b = sim::runner::run_trial(&loaded, &config, "beatslide", seed).expect("runs");
+            assert_eq!(strip(a), strip(b));
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

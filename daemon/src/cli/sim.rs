@@ -132,28 +132,32 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
 fn print_summary(scene: &Scene, tracker: &str, trials: &[TrialResult]) {
     outln!("scene {} with tracker {tracker}", scene.name);
     outln!(
-        "{:>5} {:>8} {:>16} {:>7} {:>9} {:>9} {:>9} {:>6} {:>9} {:>7}",
+        "{:>5} {:>8} {:>16} {:>7} {:>9} {:>9} {:>9} {:>9} {:>6} {:>6} {:>9} {:>7}",
         "trial",
         "seed",
         "end",
         "points",
         "mean mm",
         "sd mm",
+        "p95 mm",
         "max mm",
+        "false",
         "back",
         "track s",
         "wall s"
     );
     for (i, t) in trials.iter().enumerate() {
         outln!(
-            "{:>5} {:>8} {:>16} {:>7} {:>9.2} {:>9.2} {:>9.2} {:>6} {:>9.1} {:>7.3}",
+            "{:>5} {:>8} {:>16} {:>7} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>6} {:>6} {:>9.1} {:>7.3}",
             i + 1,
             t.seed,
             t.end_reason,
             t.lateral_error_m.points,
             t.lateral_error_m.mean * 1e3,
             t.lateral_error_m.sd * 1e3,
+            t.lateral_error_m.p95 * 1e3,
             t.lateral_error_m.max * 1e3,
+            t.false_points,
             t.backtracks,
             t.duration_s,
             t.wall_s
@@ -202,6 +206,26 @@ fn plot_trials(
             Mark::LinePoints,
         ));
     }
+    let false_points: Vec<&sim::trial::LocatedSample> = trials
+        .iter()
+        .flat_map(|t| &t.located)
+        .filter(|p| p.lateral_error_m.abs() > sim::trial::FALSE_POINT_M)
+        .collect();
+    let false_label = format!(
+        "false points (> {:.0} mm off): {}",
+        sim::trial::FALSE_POINT_M * 1e3,
+        false_points.len()
+    );
+    if !false_points.is_empty() {
+        top = top.with(Series::new(
+            false_label.clone(),
+            false_points
+                .iter()
+                .map(|p| (mm(p.x_m), mm(p.z_m)))
+                .collect(),
+            Mark::Crosses,
+        ));
+    }
     files.extend(write_chart(&top, dir, "top_view")?);
     // Lateral error against distance along the path.
     let mut err = Chart::new(
@@ -217,6 +241,16 @@ fn plot_trials(
                 .map(|p| (mm(p.along_path_m), mm(p.lateral_error_m)))
                 .collect(),
             Mark::LinePoints,
+        ));
+    }
+    if !false_points.is_empty() {
+        err = err.with(Series::new(
+            false_label,
+            false_points
+                .iter()
+                .map(|p| (mm(p.along_path_m), mm(p.lateral_error_m)))
+                .collect(),
+            Mark::Crosses,
         ));
     }
     files.extend(write_chart(&err, dir, "error_along_path")?);

@@ -22,6 +22,9 @@ pub enum Mark {
     Line,
     Points,
     LinePoints,
+    /// Large red crosses whatever the series' place: points that must stand out (false
+    /// points, reported where the tracker felt nothing).
+    Crosses,
 }
 
 #[derive(Debug, Clone)]
@@ -201,6 +204,13 @@ fn draw<DB: DrawingBackend>(
                     PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
                 });
         }
+        if s.mark == Mark::Crosses {
+            let red = RGBColor(220, 0, 0);
+            ctx.draw_series(pts.iter().map(|&p| Cross::new(p, 8, red.stroke_width(3))))
+                .map_err(|e| err(&e))?
+                .label(s.name.clone())
+                .legend(move |(x, y)| Cross::new((x + 10, y), 6, red.stroke_width(3)));
+        }
         if matches!(s.mark, Mark::Points | Mark::LinePoints) {
             let drawn = ctx
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))
@@ -239,7 +249,8 @@ mod tests {
                 "points",
                 vec![(0.5, 0.4), (f64::NAN, 1.0)],
                 Mark::Points,
-            ));
+            ))
+            .with(Series::new("false points", vec![(0.2, 0.9)], Mark::Crosses));
         let files = write_chart(&chart, &dir, "demo").unwrap();
         for f in &files {
             let len = std::fs::metadata(f).unwrap().len();
@@ -247,6 +258,10 @@ mod tests {
         }
         let svg = std::fs::read_to_string(&files[1]).unwrap();
         assert!(svg.contains("x (m)"), "axis label drawn as text");
+        assert!(
+            svg.contains("false points"),
+            "the crosses have a legend entry"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 

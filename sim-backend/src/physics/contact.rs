@@ -182,6 +182,7 @@ mod tests {
                 kinetic_coefficient: 0.5,
                 shear_stiffness_n_per_m: 2000.0,
             }),
+            breathing: None,
         })
     }
 

@@ -13,13 +13,15 @@ pub mod pulse;
 mod shipped;
 mod spec;
 mod validate;
+mod write;
 
 use std::path::Path;
 
-pub use path::{ArteryPath, Nearest, PathSpec, Turn};
-pub use pulse::{PulseSource, PulseSpec, RateChange};
+pub use path::{ArteryPath, CurvatureKnot, Nearest, PathSpec, Turn};
+pub use pulse::{Ectopic, PulseSource, PulseSpec, RateChange};
 pub use shipped::{SHIPPED, shipped_names, shipped_source};
 pub use spec::*;
+pub use write::to_ron;
 
 use config::ConfigError;
 

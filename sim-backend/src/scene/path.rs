@@ -6,6 +6,16 @@
 //! travelling along `+x` (the left normal `(-sin θ, cos θ)`). Beyond its two ends the tube is
 //! taken to continue straight along the end tangents (the seed's tube ran on to its valve),
 //! so the query is defined everywhere and a sensor past the end still feels the tube.
+//!
+//! The nearest-point query goes through a bounding-volume hierarchy over the pieces
+//! ([`index`]), so courses of hundreds of pieces (splines, sinusoids, spirals) cost about
+//! what an arc does; it returns exactly what a scan of every piece returns.
+
+mod index;
+mod shapes;
+
+#[cfg(test)]
+mod shape_tests;
 
 use std::f64::consts::PI;
 
@@ -45,8 +55,14 @@ pub enum PathSpec {
         turn: Turn,
     },
     /// Two arcs of equal radius and opposite turn, each half of `length_m`, symmetric about
-    /// the origin; the path starts at the `-x` end heading so that its ends lie on `x`.
-    SCurve { radius_m: f64, length_m: f64 },
+    /// the origin; the path starts at the `-x` end heading so that its ends lie on `x`. The
+    /// first arc turns `turn` (default left, toward `+z`).
+    SCurve {
+        radius_m: f64,
+        length_m: f64,
+        #[serde(default)]
+        turn: Turn,
+    },
     /// A straight segment from `start` at `heading_rad` (0 along `+x`, π/2 along `+z`).
     Straight {
         start: SurfacePoint,
@@ -62,6 +78,81 @@ pub enum PathSpec {
         #[serde(default)]
         sample_m: Option<f64>,
     },
+    /// A sine wave about a straight axis from `start` along `heading_rad`: the course lies
+    /// `amplitude_m · (sin(2π u / wavelength_m + phase_rad) − sin(phase_rad))` to the axis's
+    /// left at distance `u` along it, so it starts at `start`; `length_m` is the course's
+    /// own arc length. Built from short arcs (`step_m`, default 1 mm) whose headings are
+    /// exact at their ends.
+    Sinusoid {
+        start: SurfacePoint,
+        heading_rad: f64,
+        amplitude_m: f64,
+        wavelength_m: f64,
+        length_m: f64,
+        #[serde(default)]
+        phase_rad: f64,
+        #[serde(default)]
+        step_m: Option<f64>,
+    },
+    /// A spiral whose radius goes linearly in arc length from `start_radius_m` to
+    /// `end_radius_m` over `length_m`, from `start` at `heading_rad`, turning `turn`. Built
+    /// from short arcs (`step_m`, default 1 mm) whose headings are exact at their ends.
+    Spiral {
+        start: SurfacePoint,
+        heading_rad: f64,
+        start_radius_m: f64,
+        end_radius_m: f64,
+        length_m: f64,
+        #[serde(default)]
+        turn: Turn,
+        #[serde(default)]
+        step_m: Option<f64>,
+    },
+    /// Straight legs from `start` at `heading_rad`: leg `i` is `legs_m[i]` long between its
+    /// corners, and the course turns by `bends_rad[i]` (positive toward `+z` when travelling
+    /// along `+x`, below ±180°) between leg `i` and leg `i + 1`. With `fillet_radius_m` each
+    /// corner is rounded by an arc of that radius tangent to both legs (the corner points
+    /// stay where they are; the legs are shortened); 0 (the default) keeps the corners sharp.
+    Corners {
+        start: SurfacePoint,
+        heading_rad: f64,
+        legs_m: Vec<f64>,
+        bends_rad: Vec<f64>,
+        #[serde(default)]
+        fillet_radius_m: f64,
+    },
+    /// A clothoid spline: the curvature (1/m, positive turning toward `+z` when travelling
+    /// along `+x`) goes linearly in arc length between `knots` (their `s_m` increasing from
+    /// 0; the last one's is the course's length), from `start` at `heading_rad`. Built from
+    /// short arcs (`step_m`, default 1 mm) whose headings are exact at their ends. Random
+    /// smooth courses of bounded curvature and curvature rate are drawn as these.
+    Clothoid {
+        start: SurfacePoint,
+        heading_rad: f64,
+        knots: Vec<CurvatureKnot>,
+        #[serde(default)]
+        step_m: Option<f64>,
+    },
+    /// Another path moved rigidly: rotated by `rotation_rad` about the origin (toward `+z`
+    /// from `+x`), then shifted by `translation`; with `reverse` it is travelled from its end
+    /// to its start (the other tracking direction).
+    Transformed {
+        path: Box<PathSpec>,
+        #[serde(default)]
+        rotation_rad: f64,
+        #[serde(default)]
+        translation: SurfacePoint,
+        #[serde(default)]
+        reverse: bool,
+    },
+}
+
+/// The curvature at one arc length of a [`PathSpec::Clothoid`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurvatureKnot {
+    pub s_m: f64,
+    pub curvature_per_m: f64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -193,6 +284,7 @@ pub struct ArteryPath {
     /// Arc length at the start of each piece.
     starts: Vec<f64>,
     length: f64,
+    index: index::PieceIndex,
 }
 
 impl ArteryPath {
@@ -224,7 +316,11 @@ impl ArteryPath {
                 let start = [chord_centre.x_m - half_chord, chord_centre.z_m];
                 Ok(Self::chain(start, heading0, &[(sign / r, l)]))
             }
-            PathSpec::SCurve { radius_m, length_m } => {
+            PathSpec::SCurve {
+                radius_m,
+                length_m,
+                turn,
+            } => {
                 let (r, l) = (*radius_m, *length_m);
                 if !(r.is_finite() && r > 0.0 && l.is_finite() && l > 0.0) {
                     return bad(format!(
@@ -236,15 +332,16 @@ impl ArteryPath {
                         "each half of an S-curve of length {l} m turns more than 180° on radius {r} m"
                     ));
                 }
+                let sign = turn.sign();
                 let sweep = l / 2.0 / r;
-                let heading0 = -sweep / 2.0;
+                let heading0 = -sign * sweep / 2.0;
                 // Place it so that its midpoint (the inflection) is the origin.
-                let first = Self::chain([0.0, 0.0], heading0, &[(1.0 / r, l / 2.0)]);
+                let first = Self::chain([0.0, 0.0], heading0, &[(sign / r, l / 2.0)]);
                 let (mid, _) = first.pieces[0].at(l / 2.0);
                 Ok(Self::chain(
                     [-mid[0], -mid[1]],
                     heading0,
-                    &[(1.0 / r, l / 2.0), (-1.0 / r, l / 2.0)],
+                    &[(sign / r, l / 2.0), (-sign / r, l / 2.0)],
                 ))
             }
             PathSpec::Straight {
@@ -276,6 +373,78 @@ impl ArteryPath {
                 }
                 let sampled = catmull_rom(points, step)?;
                 Self::polyline(&sampled)
+            }
+            PathSpec::Sinusoid {
+                start,
+                heading_rad,
+                amplitude_m,
+                wavelength_m,
+                length_m,
+                phase_rad,
+                step_m,
+            } => Ok(Self::from_pieces(shapes::sinusoid(
+                *start,
+                *heading_rad,
+                *amplitude_m,
+                *wavelength_m,
+                *length_m,
+                *phase_rad,
+                step_m.unwrap_or(shapes::DEFAULT_STEP_M),
+            )?)),
+            PathSpec::Spiral {
+                start,
+                heading_rad,
+                start_radius_m,
+                end_radius_m,
+                length_m,
+                turn,
+                step_m,
+            } => Ok(Self::from_pieces(shapes::spiral(
+                *start,
+                *heading_rad,
+                *start_radius_m,
+                *end_radius_m,
+                *length_m,
+                *turn,
+                step_m.unwrap_or(shapes::DEFAULT_STEP_M),
+            )?)),
+            PathSpec::Corners {
+                start,
+                heading_rad,
+                legs_m,
+                bends_rad,
+                fillet_radius_m,
+            } => Ok(Self::from_pieces(shapes::corners(
+                *start,
+                *heading_rad,
+                legs_m,
+                bends_rad,
+                *fillet_radius_m,
+            )?)),
+            PathSpec::Clothoid {
+                start,
+                heading_rad,
+                knots,
+                step_m,
+            } => Ok(Self::from_pieces(shapes::clothoid(
+                *start,
+                *heading_rad,
+                knots,
+                step_m.unwrap_or(shapes::DEFAULT_STEP_M),
+            )?)),
+            PathSpec::Transformed {
+                path,
+                rotation_rad,
+                translation,
+                reverse,
+            } => {
+                let inner = Self::from_spec(path)?;
+                Ok(Self::from_pieces(shapes::transformed(
+                    inner.pieces,
+                    *rotation_rad,
+                    *translation,
+                    *reverse,
+                )?))
             }
         }
     }
@@ -355,10 +524,12 @@ impl ArteryPath {
             starts.push(s);
             s += p.length();
         }
+        let index = index::PieceIndex::new(&pieces);
         Self {
             pieces,
             starts,
             length: s,
+            index,
         }
     }
 
@@ -395,6 +566,17 @@ impl ArteryPath {
     /// The path's nearest point to `p`, with the signed offset.
     pub fn nearest(&self, p: SurfacePoint) -> Nearest {
         let q = [p.x_m, p.z_m];
+        let (best_s, best_d2) = match self.index.nearest(&self.pieces, q) {
+            Some((i, s, d2)) => (self.starts[i] + s, d2),
+            None => (0.0, f64::INFINITY),
+        };
+        self.finish_nearest(q, best_s, best_d2)
+    }
+
+    /// [`Self::nearest`] by scanning every piece: the reference the index must match.
+    #[cfg(test)]
+    pub(crate) fn nearest_by_scan(&self, p: SurfacePoint) -> Nearest {
+        let q = [p.x_m, p.z_m];
         let mut best_s = 0.0;
         let mut best_d2 = f64::INFINITY;
         for (piece, &start) in self.pieces.iter().zip(&self.starts) {
@@ -406,6 +588,11 @@ impl ArteryPath {
                 best_s = start + s;
             }
         }
+        self.finish_nearest(q, best_s, best_d2)
+    }
+
+    /// The straight continuations past the ends against the best piece, and the offset.
+    fn finish_nearest(&self, q: [f64; 2], mut best_s: f64, mut best_d2: f64) -> Nearest {
         // The straight continuations beyond the ends.
         let (p0, h0) = self.at(0.0);
         let before = (q[0] - p0.x_m) * h0.cos() + (q[1] - p0.z_m) * h0.sin();
@@ -435,6 +622,31 @@ impl ArteryPath {
             heading_rad: heading,
             point: c,
         }
+    }
+
+    /// The largest curvature of any arc piece, 1/m (0 for straight pieces only; the
+    /// corners between pieces are [`Self::largest_corner_rad`]).
+    pub fn largest_curvature_per_m(&self) -> f64 {
+        self.pieces
+            .iter()
+            .map(|p| match *p {
+                Piece::Line { .. } => 0.0,
+                Piece::Arc { radius, .. } => 1.0 / radius,
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// The largest change of heading where one piece meets the next (a sharp corner), rad.
+    pub fn largest_corner_rad(&self) -> f64 {
+        self.pieces
+            .windows(2)
+            .map(|w| {
+                let (_, end) = w[0].at(w[0].length());
+                let (_, start) = w[1].at(0.0);
+                let d = (start - end).rem_euclid(2.0 * PI);
+                d.min(2.0 * PI - d)
+            })
+            .fold(0.0, f64::max)
     }
 
     /// Points every `step_m` along the path, both ends included (for plots).
@@ -577,6 +789,7 @@ mod tests {
         let p = ArteryPath::from_spec(&PathSpec::SCurve {
             radius_m: 0.1,
             length_m: 0.26,
+            turn: Turn::Left,
         })
         .unwrap();
         let (mid, _) = p.at(0.13);

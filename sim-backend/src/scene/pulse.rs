@@ -29,8 +29,9 @@ pub enum PulseSpec {
     },
     /// A physiological arterial pulse: `diastolic_pa` to `systolic_pa`, mean heart rate
     /// `heart_rate_hz`, beat-to-beat variability as the SD of the beat interval
-    /// (`interval_sd_s`) and of the pulse pressure (`pressure_sd_fraction`), and optionally a
-    /// change of the mean rate during the trial (`rate_change`).
+    /// (`interval_sd_s`) and of the pulse pressure (`pressure_sd_fraction`), optionally a
+    /// change of the mean rate during the trial (`rate_change`) and premature (ectopic)
+    /// beats (`ectopic`).
     Physiological {
         systolic_pa: f64,
         diastolic_pa: f64,
@@ -41,6 +42,8 @@ pub enum PulseSpec {
         pressure_sd_fraction: f64,
         #[serde(default)]
         rate_change: Option<RateChange>,
+        #[serde(default)]
+        ectopic: Option<Ectopic>,
     },
     /// No pulse at all (a hard case: the tracker must end cleanly).
     Absent,
@@ -71,6 +74,29 @@ impl RateChange {
     }
 }
 
+/// Premature (ectopic) beats: each beat is followed early, with `probability`, by a weak
+/// premature beat and then a compensatory pause. The beat before it is cut short to
+/// `1 − prematurity` of the mean interval (its contour compressed in time), the premature
+/// beat has `pressure_fraction` of the pulse pressure and lasts `1 + prematurity` mean
+/// intervals, so the pair spans two normal intervals (a full compensatory pause).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ectopic {
+    pub probability: f64,
+    #[serde(default = "ectopic_prematurity")]
+    pub prematurity: f64,
+    #[serde(default = "ectopic_pressure")]
+    pub pressure_fraction: f64,
+}
+
+fn ectopic_prematurity() -> f64 {
+    0.35
+}
+
+fn ectopic_pressure() -> f64 {
+    0.5
+}
+
 fn half() -> f64 {
     0.5
 }
@@ -96,22 +122,33 @@ pub struct PulseSource {
     previous: Beat,
     current: Beat,
     beats_started: u64,
+    /// The next beat is the premature one (the current one was cut short for it).
+    premature_next: bool,
 }
 
 impl PulseSource {
     pub fn new(spec: &PulseSpec, seed: u64) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let first = Self::draw(spec, &mut rng, 0.0);
+        let mut premature_next = false;
+        let first = Self::draw(spec, &mut rng, 0.0, &mut premature_next);
         Self {
             spec: spec.clone(),
             rng,
             previous: first,
             current: first,
             beats_started: 1,
+            premature_next,
         }
     }
 
-    fn draw(spec: &PulseSpec, rng: &mut ChaCha8Rng, start_s: f64) -> Beat {
+    /// The beat starting at `start_s`. Ectopic draws happen only when the scene names
+    /// ectopic beats, so every other pulse draws the same stream as before they existed.
+    fn draw(
+        spec: &PulseSpec,
+        rng: &mut ChaCha8Rng,
+        start_s: f64,
+        premature_next: &mut bool,
+    ) -> Beat {
         match *spec {
             PulseSpec::Solenoid {
                 pressure_pa,
@@ -129,14 +166,25 @@ impl PulseSource {
                 interval_sd_s,
                 pressure_sd_fraction,
                 rate_change,
+                ectopic,
             } => {
                 let rate = rate_change.map_or(heart_rate_hz, |c| c.rate_hz(heart_rate_hz, start_s));
                 let mean = 1.0 / rate;
                 // Keep intervals physiological: within ±40 % of the mean.
-                let period =
+                let mut period =
                     (mean + interval_sd_s * standard_normal(rng)).clamp(0.6 * mean, 1.4 * mean);
-                let amp = (systolic_pa - diastolic_pa)
+                let mut amp = (systolic_pa - diastolic_pa)
                     * (1.0 + pressure_sd_fraction * standard_normal(rng)).clamp(0.5, 1.5);
+                if let Some(e) = ectopic {
+                    if *premature_next {
+                        *premature_next = false;
+                        period = (1.0 + e.prematurity) * mean;
+                        amp *= e.pressure_fraction;
+                    } else if crate::random::uniform_open(rng) < e.probability {
+                        *premature_next = true;
+                        period = (1.0 - e.prematurity) * mean;
+                    }
+                }
                 Beat {
                     start_s,
                     period_s: period,
@@ -159,7 +207,12 @@ impl PulseSource {
         while t_s >= self.current.start_s + self.current.period_s {
             let next_start = self.current.start_s + self.current.period_s;
             self.previous = self.current;
-            self.current = Self::draw(&self.spec, &mut self.rng, next_start);
+            self.current = Self::draw(
+                &self.spec,
+                &mut self.rng,
+                next_start,
+                &mut self.premature_next,
+            );
             self.beats_started += 1;
         }
     }
@@ -299,6 +352,7 @@ mod tests {
             interval_sd_s: 0.04,
             pressure_sd_fraction: 0.05,
             rate_change: None,
+            ectopic: None,
         };
         let run = |seed| {
             let mut p = PulseSource::new(&spec, seed);
@@ -327,6 +381,7 @@ mod tests {
                 start_s: 20.0,
                 duration_s: 10.0,
             }),
+            ectopic: None,
         };
         let mut p = PulseSource::new(&spec, 1);
         // Steady 1 Hz for 20 s, then faster, then 1.5 Hz.
@@ -345,6 +400,54 @@ mod tests {
         };
         assert_eq!(c.rate_hz(1.0, 4.9), 1.0);
         assert_eq!(c.rate_hz(1.0, 5.0), 2.0);
+    }
+
+    #[test]
+    fn ectopic_beats_come_early_weak_and_are_compensated() {
+        let spec = |ectopic| PulseSpec::Physiological {
+            systolic_pa: 16_000.0,
+            diastolic_pa: 10_667.0,
+            heart_rate_hz: 1.0,
+            interval_sd_s: 0.0,
+            pressure_sd_fraction: 0.0,
+            rate_change: None,
+            ectopic,
+        };
+        let beats = |spec: &PulseSpec| {
+            let mut p = PulseSource::new(spec, 9);
+            p.advance_to(0.0);
+            let mut out = vec![p.current];
+            while out.len() < 400 {
+                let t = p.current.start_s + p.current.period_s;
+                p.advance_to(t);
+                out.push(p.current);
+            }
+            out
+        };
+        let regular = beats(&spec(None));
+        assert!(regular.iter().all(|b| b.period_s == 1.0));
+        let e = Ectopic {
+            probability: 0.1,
+            prematurity: 0.3,
+            pressure_fraction: 0.4,
+        };
+        let irregular = beats(&spec(Some(e)));
+        let short: Vec<usize> = (0..irregular.len() - 1)
+            .filter(|&i| (irregular[i].period_s - 0.7).abs() < 1e-12)
+            .collect();
+        // About one beat in ten, each followed by the weak premature beat and its pause.
+        assert!((20..=60).contains(&short.len()), "{}", short.len());
+        for i in short {
+            let next = irregular[i + 1];
+            assert!((next.period_s - 1.3).abs() < 1e-12);
+            assert!((next.amplitude_pa - 0.4 * 5_333.0).abs() < 1.0);
+            assert!((next.start_s + next.period_s - irregular[i].start_s - 2.0).abs() < 1e-9);
+        }
+        assert!(irregular.iter().all(|b| {
+            [0.7, 1.0, 1.3]
+                .iter()
+                .any(|p| (b.period_s - p).abs() < 1e-12)
+        }));
     }
 
     #[test]

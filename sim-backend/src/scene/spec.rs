@@ -47,7 +47,7 @@ pub struct Scene {
     pub faults: Option<FaultSpec>,
     /// The surgeon's two manual placements of the sensor centre, tissue frame, written as a
     /// list of two points.
-    #[serde(deserialize_with = "two_points")]
+    #[serde(deserialize_with = "two_points", serialize_with = "two_points_out")]
     pub placements: [SurfacePoint; 2],
     /// How much artery to follow, and why that much.
     pub track: TrackSpec,
@@ -138,6 +138,8 @@ pub struct TissueSpec {
     pub contact_damping_n_s_per_m: f64,
     /// Sliding friction; absent: frictionless.
     pub friction: Option<FrictionSpec>,
+    /// The tissue (artery and lumps with it) moving with breathing; absent: at rest.
+    pub breathing: Option<Breathing>,
 }
 
 impl Default for TissueSpec {
@@ -146,7 +148,44 @@ impl Default for TissueSpec {
             contact_stiffness_n_per_m: 1000.0,
             contact_damping_n_s_per_m: 15.0,
             friction: None,
+            breathing: None,
         }
+    }
+}
+
+/// The tissue moving with breathing: the artery and the lumps are displaced, rigidly in the
+/// tissue plane, by `amplitude_m · sin(2π frequency_hz · t + phase_rad)` along
+/// `direction_rad` (0: along `+x`, π/2: along `+z`). The sensor's contact and friction are
+/// not dragged with it (the tissue slides under the sensor), and a located point is scored
+/// against the artery where it was at the time of the fix.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Breathing {
+    /// Peak displacement, m.
+    pub amplitude_m: f64,
+    pub frequency_hz: f64,
+    #[serde(default = "across_x")]
+    pub direction_rad: f64,
+    #[serde(default)]
+    pub phase_rad: f64,
+}
+
+fn across_x() -> f64 {
+    std::f64::consts::FRAC_PI_2
+}
+
+impl Breathing {
+    /// The tissue's displacement at `t_s` (x, z), m.
+    pub fn displacement_m(&self, t_s: f64) -> [f64; 2] {
+        let a = self.amplitude_m
+            * (2.0 * std::f64::consts::PI * self.frequency_hz * t_s + self.phase_rad).sin();
+        [a * self.direction_rad.cos(), a * self.direction_rad.sin()]
+    }
+
+    /// `p` moved into the resting tissue's frame at `t_s` (the displacement taken off).
+    pub fn to_rest(&self, p: SurfacePoint, t_s: f64) -> SurfacePoint {
+        let d = self.displacement_m(t_s);
+        SurfacePoint::new(p.x_m - d[0], p.z_m - d[1])
     }
 }
 
@@ -368,4 +407,9 @@ fn two_points<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[SurfacePoint; 2
     let n = points.len();
     <[SurfacePoint; 2]>::try_from(points)
         .map_err(|_| serde::de::Error::custom(format!("expected exactly two placements, got {n}")))
+}
+
+/// The placements as the list the loader reads.
+fn two_points_out<S: serde::Serializer>(p: &[SurfacePoint; 2], s: S) -> Result<S::Ok, S::Error> {
+    p.as_slice().serialize(s)
 }

@@ -250,3 +250,54 @@ fn an_arc_centre_and_a_spline_step_are_checked() {
     let ok = spline.replace("sample_m: 1e-12", "sample_m: 0.001");
     let _: Scene = config::load_str("t.ron", &ok).unwrap();
 }
+
+/// The golden lines of one path: points along it (and past its ends) and nearest-point
+/// queries beside it, every number exactly (`{:?}` round-trips an f64).
+fn golden(name: &str, path: &ArteryPath) -> String {
+    use control::frames::SurfacePoint;
+    let mut out = String::new();
+    let l = path.length_m();
+    out.push_str(&format!("scene {name} length {l:?}\n"));
+    for i in 0..=12 {
+        let s = -0.02 + (l + 0.04) * i as f64 / 12.0;
+        let (p, h) = path.at(s);
+        out.push_str(&format!("at {s:?} {:?} {:?} {h:?}\n", p.x_m, p.z_m));
+    }
+    for j in 0..24 {
+        let s = l * (j as f64 + 0.5) / 24.0;
+        let (p, h) = path.at(s);
+        let o = -0.03 + 0.06 * ((j * 7) % 24) as f64 / 23.0;
+        let q = SurfacePoint::new(p.x_m - o * h.sin(), p.z_m + o * h.cos());
+        let n = path.nearest(q);
+        out.push_str(&format!(
+            "near {:?} {:?} -> {:?} {:?} {:?} {:?} {:?}\n",
+            q.x_m, q.z_m, n.s_m, n.offset_m, n.heading_rad, n.point.x_m, n.point.z_m
+        ));
+    }
+    out
+}
+
+/// Every shipped scene (version 1) gives exactly the path it gave before the scene families
+/// (the new path types, the rigid move, the nearest-point index): points, headings and
+/// nearest points, bit for bit, as recorded from the code before them.
+#[test]
+fn shipped_scenes_give_exactly_the_paths_they_gave_before() {
+    let expected = include_str!("testdata/shipped_paths.golden");
+    let mut got = String::new();
+    for name in shipped_names() {
+        let scene = load(name, None).unwrap();
+        let path = ArteryPath::from_spec(&scene.artery.path).unwrap();
+        got.push_str(&golden(name, &path));
+        // And the index agrees with the full scan around every path.
+        for q in path.sample(0.002) {
+            for (dx, dz) in [(0.0, 0.0), (0.004, -0.007), (-0.02, 0.013)] {
+                let q = control::frames::SurfacePoint::new(q.x_m + dx, q.z_m + dz);
+                assert_eq!(path.nearest(q), path.nearest_by_scan(q), "{name}");
+            }
+        }
+    }
+    for (i, (g, e)) in got.lines().zip(expected.lines()).enumerate() {
+        assert_eq!(g, e, "line {}", i + 1);
+    }
+    assert_eq!(got.lines().count(), expected.lines().count());
+}

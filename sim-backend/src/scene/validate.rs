@@ -197,7 +197,9 @@ fn validate_path(spec: &PathSpec, v: &mut Validator) {
             v.in_range("chord_centre.x_m", chord_centre.x_m, -1.0, 1.0);
             v.in_range("chord_centre.z_m", chord_centre.z_m, -1.0, 1.0);
         }
-        PathSpec::SCurve { radius_m, length_m } => {
+        PathSpec::SCurve {
+            radius_m, length_m, ..
+        } => {
             v.in_range("radius_m", *radius_m, 1e-3, 10.0);
             v.in_range("length_m", *length_m, 1e-3, 2.0);
         }
@@ -225,11 +227,108 @@ fn validate_path(spec: &PathSpec, v: &mut Validator) {
                 v.in_range("sample_m", *step, 1e-5, 0.01);
             }
         }
+        PathSpec::Sinusoid {
+            start,
+            heading_rad,
+            amplitude_m,
+            wavelength_m,
+            length_m,
+            phase_rad,
+            step_m,
+        } => {
+            start_and_heading(v, start, *heading_rad);
+            v.in_range("amplitude_m", *amplitude_m, 0.0, 0.5);
+            v.in_range("wavelength_m", *wavelength_m, 1e-3, 10.0);
+            v.in_range("length_m", *length_m, 1e-3, 2.0);
+            v.finite("phase_rad", *phase_rad);
+            if let Some(step) = step_m {
+                v.in_range("step_m", *step, 1e-5, 0.01);
+            }
+        }
+        PathSpec::Spiral {
+            start,
+            heading_rad,
+            start_radius_m,
+            end_radius_m,
+            length_m,
+            step_m,
+            ..
+        } => {
+            start_and_heading(v, start, *heading_rad);
+            v.in_range("start_radius_m", *start_radius_m, 1e-3, 10.0);
+            v.in_range("end_radius_m", *end_radius_m, 1e-3, 10.0);
+            v.in_range("length_m", *length_m, 1e-3, 2.0);
+            if let Some(step) = step_m {
+                v.in_range("step_m", *step, 1e-5, 0.01);
+            }
+        }
+        PathSpec::Corners {
+            start,
+            heading_rad,
+            legs_m,
+            bends_rad,
+            fillet_radius_m,
+        } => {
+            start_and_heading(v, start, *heading_rad);
+            for (i, &l) in legs_m.iter().enumerate() {
+                v.in_range(&format!("legs_m[{i}]"), l, 1e-3, 2.0);
+            }
+            for (i, &b) in bends_rad.iter().enumerate() {
+                v.check(
+                    b.is_finite() && b.abs() < std::f64::consts::PI,
+                    &format!("bends_rad[{i}]"),
+                    format!("must lie strictly between -180 and 180 degrees, got {b}"),
+                );
+            }
+            v.in_range("fillet_radius_m", *fillet_radius_m, 0.0, 1.0);
+        }
+        PathSpec::Clothoid {
+            start,
+            heading_rad,
+            knots,
+            step_m,
+        } => {
+            start_and_heading(v, start, *heading_rad);
+            for (i, k) in knots.iter().enumerate() {
+                v.in_range(&format!("knots[{i}].s_m"), k.s_m, 0.0, 2.0);
+                v.in_range(
+                    &format!("knots[{i}].curvature_per_m"),
+                    k.curvature_per_m,
+                    -1000.0,
+                    1000.0,
+                );
+            }
+            if let Some(step) = step_m {
+                v.in_range("step_m", *step, 1e-5, 0.01);
+            }
+        }
+        PathSpec::Transformed {
+            path,
+            rotation_rad,
+            translation,
+            ..
+        } => {
+            v.finite("rotation_rad", *rotation_rad);
+            v.in_range("translation.x_m", translation.x_m, -1.0, 1.0);
+            v.in_range("translation.z_m", translation.z_m, -1.0, 1.0);
+            // The inner path's own checks; whether the whole builds is checked once below.
+            let before = v.problem_count();
+            v.at("path", |v| validate_path(path, v));
+            if v.problem_count() > before {
+                return;
+            }
+        }
     }
     // Whatever the numbers, the path must build.
     if let Err(e) = ArteryPath::from_spec(spec) {
         v.problem("", e.to_string());
     }
+}
+
+fn start_and_heading(v: &mut Validator, start: &control::frames::SurfacePoint, heading: f64) {
+    v.in_range("start.x_m", start.x_m, -1.0, 1.0);
+    v.in_range("start.z_m", start.z_m, -1.0, 1.0);
+    v.finite("heading_rad", heading);
 }
 
 impl Validate for PulseSpec {
@@ -253,6 +352,7 @@ impl Validate for PulseSpec {
                 interval_sd_s,
                 pressure_sd_fraction,
                 rate_change,
+                ectopic,
             } => {
                 v.in_range("systolic_pa", systolic_pa, 0.0, 1.0e5);
                 v.in_range("diastolic_pa", diastolic_pa, 0.0, 1.0e5);
@@ -264,6 +364,13 @@ impl Validate for PulseSpec {
                 v.in_range("heart_rate_hz", heart_rate_hz, 0.3, 4.0);
                 v.in_range("interval_sd_s", interval_sd_s, 0.0, 0.5);
                 v.in_range("pressure_sd_fraction", pressure_sd_fraction, 0.0, 0.5);
+                if let Some(e) = ectopic {
+                    v.at("ectopic", |v| {
+                        v.in_range("probability", e.probability, 0.0, 0.5);
+                        v.in_range("prematurity", e.prematurity, 0.05, 0.5);
+                        v.in_range("pressure_fraction", e.pressure_fraction, 0.0, 1.0);
+                    });
+                }
                 if let Some(c) = rate_change {
                     v.at("rate_change", |v| {
                         v.in_range("to_hz", c.to_hz, 0.3, 4.0);
@@ -291,6 +398,14 @@ impl Validate for TissueSpec {
             0.0,
             1.0e4,
         );
+        if let Some(b) = &self.breathing {
+            v.at("breathing", |v| {
+                v.in_range("amplitude_m", b.amplitude_m, 0.0, 0.02);
+                v.in_range("frequency_hz", b.frequency_hz, 0.01, 2.0);
+                v.finite("direction_rad", b.direction_rad);
+                v.finite("phase_rad", b.phase_rad);
+            });
+        }
         if let Some(f) = &self.friction {
             v.at("friction", |v| {
                 v.in_range("static_coefficient", f.static_coefficient, 0.0, 3.0);
