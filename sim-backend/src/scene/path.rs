@@ -285,6 +285,8 @@ pub struct ArteryPath {
     starts: Vec<f64>,
     length: f64,
     index: index::PieceIndex,
+    /// The path's two ends and their heading's (cos, sin), for the straight continuations.
+    ends: [([f64; 2], f64, f64); 2],
 }
 
 impl ArteryPath {
@@ -525,12 +527,25 @@ impl ArteryPath {
             s += p.length();
         }
         let index = index::PieceIndex::new(&pieces);
-        Self {
+        let mut path = Self {
             pieces,
             starts,
             length: s,
             index,
+            ends: [([0.0; 2], 1.0, 0.0); 2],
+        };
+        if !path.pieces.is_empty() {
+            for (k, s) in [0.0, path.length].into_iter().enumerate() {
+                let (p, h) = path.at(s);
+                path.ends[k] = ([p.x_m, p.z_m], h.cos(), h.sin());
+            }
         }
+        path
+    }
+
+    /// How many pieces (segments and arcs) the path is built from.
+    pub fn piece_count(&self) -> usize {
+        self.pieces.len()
     }
 
     /// Total arc length, m.
@@ -573,9 +588,10 @@ impl ArteryPath {
         self.finish_nearest(q, best_s, best_d2)
     }
 
-    /// [`Self::nearest`] by scanning every piece: the reference the index must match.
-    #[cfg(test)]
-    pub(crate) fn nearest_by_scan(&self, p: SurfacePoint) -> Nearest {
+    /// [`Self::nearest`] by scanning every piece (the query before the index): the
+    /// reference the index must match, public for the speed example.
+    #[doc(hidden)]
+    pub fn nearest_by_scan(&self, p: SurfacePoint) -> Nearest {
         let q = [p.x_m, p.z_m];
         let mut best_s = 0.0;
         let mut best_d2 = f64::INFINITY;
@@ -594,8 +610,8 @@ impl ArteryPath {
     /// The straight continuations past the ends against the best piece, and the offset.
     fn finish_nearest(&self, q: [f64; 2], mut best_s: f64, mut best_d2: f64) -> Nearest {
         // The straight continuations beyond the ends.
-        let (p0, h0) = self.at(0.0);
-        let before = (q[0] - p0.x_m) * h0.cos() + (q[1] - p0.z_m) * h0.sin();
+        let [(p0, cos0, sin0), (p1, cos1, sin1)] = self.ends;
+        let before = (q[0] - p0[0]) * cos0 + (q[1] - p0[1]) * sin0;
         if before < 0.0 {
             let (c, _) = self.at(before);
             let d2 = dist2(q, [c.x_m, c.z_m]);
@@ -604,8 +620,7 @@ impl ArteryPath {
                 best_s = before;
             }
         }
-        let (p1, h1) = self.at(self.length);
-        let after = (q[0] - p1.x_m) * h1.cos() + (q[1] - p1.z_m) * h1.sin();
+        let after = (q[0] - p1[0]) * cos1 + (q[1] - p1[1]) * sin1;
         if after > 0.0 {
             let (c, _) = self.at(self.length + after);
             let d2 = dist2(q, [c.x_m, c.z_m]);

@@ -105,10 +105,59 @@ struct Node {
     children: Option<(usize, usize)>,
 }
 
+/// A cheap lower bound on a piece's distance without trigonometry: its chord, and how far
+/// the piece can stray from the chord (the sagitta of an arc, with a margin for rounding).
+/// A piece whose bound is strictly beyond the best so far is not evaluated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Chord {
+    a: [f64; 2],
+    b: [f64; 2],
+    stray: f64,
+}
+
+impl Chord {
+    fn of(piece: &Piece) -> Self {
+        let (a, _) = piece.at(0.0);
+        let (b, _) = piece.at(piece.length());
+        let scale = a[0].abs().max(a[1].abs()).max(b[0].abs()).max(b[1].abs());
+        let stray = match *piece {
+            Piece::Line { .. } => 0.0,
+            Piece::Arc { radius, length, .. } => {
+                let angle = length / radius;
+                if angle <= std::f64::consts::PI {
+                    radius * (1.0 - (angle / 2.0).cos())
+                } else {
+                    2.0 * radius
+                }
+            }
+        };
+        Self {
+            a,
+            b,
+            stray: stray + 1e-12 + 1e-12 * scale,
+        }
+    }
+
+    /// At most the distance from `q` to the piece.
+    fn lower_bound(&self, q: [f64; 2]) -> f64 {
+        let ab = [self.b[0] - self.a[0], self.b[1] - self.a[1]];
+        let aq = [q[0] - self.a[0], q[1] - self.a[1]];
+        let len2 = ab[0] * ab[0] + ab[1] * ab[1];
+        let t = if len2 > 0.0 {
+            ((aq[0] * ab[0] + aq[1] * ab[1]) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let d = (aq[0] - t * ab[0]).hypot(aq[1] - t * ab[1]);
+        d - self.stray
+    }
+}
+
 /// The hierarchy over one path's pieces.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct PieceIndex {
     nodes: Vec<Node>,
+    chords: Vec<Chord>,
 }
 
 impl PieceIndex {
@@ -118,7 +167,10 @@ impl PieceIndex {
         if !pieces.is_empty() {
             build(&leaves, 0, pieces.len(), &mut nodes);
         }
-        Self { nodes }
+        Self {
+            nodes,
+            chords: pieces.iter().map(Chord::of).collect(),
+        }
     }
 
     /// Index and arc length within it of the piece nearest to `q`, and the squared
@@ -153,6 +205,13 @@ impl PieceIndex {
                 }
                 None => {
                     for (i, piece) in pieces.iter().enumerate().take(node.end).skip(node.first) {
+                        if let Some((_, _, bd2)) = best {
+                            let d = self.chords[i].lower_bound(q);
+                            // Strictly beyond: a tie may still be an earlier piece.
+                            if d > 0.0 && d * d > bd2 {
+                                continue;
+                            }
+                        }
                         let s = piece.nearest_s(q);
                         let (c, _) = piece.at(s);
                         let d2 = dist2(q, c);
