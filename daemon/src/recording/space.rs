@@ -7,7 +7,7 @@ use std::path::Path;
 pub fn free_bytes(dir: &Path) -> Result<(u64, bool), String> {
     let st = nix::sys::statvfs::statvfs(dir)
         .map_err(|e| format!("cannot read the free space of {}: {e}", dir.display()))?;
-    let free = u64::from(st.blocks_available()).saturating_mul(st.fragment_size());
+    let free = st.blocks_available().saturating_mul(st.fragment_size());
     let read_only = st.flags().contains(nix::sys::statvfs::FsFlags::ST_RDONLY);
     Ok((free, read_only))
 }
