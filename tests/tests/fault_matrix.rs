@@ -28,6 +28,19 @@ fn is_root() -> bool {
 /// The user every "stranger" case acts as.
 const NOBODY: u32 = 65_534;
 
+/// A copy of `exe` in a world-readable folder under `dir`, so that another user can run it: the
+/// build folder may sit under a home directory only its owner can enter (CI builds in
+/// `/root/.cache`).
+fn runnable_by_anyone(dir: &Path, exe: &Path) -> PathBuf {
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).expect("bin dir");
+    std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).expect("chmod bin");
+    let copy = bin.join(exe.file_name().expect("exe name"));
+    std::fs::copy(exe, &copy).expect("copy exe");
+    std::fs::set_permissions(&copy, std::fs::Permissions::from_mode(0o755)).expect("chmod exe");
+    copy
+}
+
 /// The test config with `edit` applied to its text (a field added after a known line).
 fn config_with(dir: &Path, setup: &Setup, edits: &[(&str, &str)]) -> PathBuf {
     let path = e2e::write_config(dir, setup);
@@ -257,8 +270,16 @@ fn recording_runs_out_mid_trial(how: NoRoom) {
         reason.contains(&trials.display().to_string()) && reason.contains(os_error),
         "the fault names the file and the OS error: {reason}"
     );
-    // The safe state: power off, latched, the trial ended.
-    let st = call(&mut c, "status", json!({}));
+    // The safe state: power off, latched, the trial ended. The arm's mode follows the latch on
+    // the loop's next cycle, so a status taken in between may still say "enabled".
+    let deadline = Instant::now() + T;
+    let st = loop {
+        let st = call(&mut c, "status", json!({}));
+        if st["arm"]["mode"] == "faulted" || Instant::now() > deadline {
+            break st;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
     assert_eq!(st["state"], "fault", "{st}");
     assert_eq!(st["arm"]["mode"], "faulted", "{st}");
     assert!(st["trial"].is_null(), "{st}");
@@ -713,7 +734,8 @@ fn the_console_tool_refuses_a_socket_served_by_another_user() {
     std::fs::set_permissions(&open, std::fs::Permissions::from_mode(0o777)).expect("chmod");
     let sock = open.join("console.sock");
     use std::os::unix::process::CommandExt;
-    let mut fake = Command::new(std::env::current_exe().expect("exe"))
+    let fake_exe = runnable_by_anyone(dir.path(), &std::env::current_exe().expect("exe"));
+    let mut fake = Command::new(fake_exe)
         .args(["fake_daemon_entry", "--exact", "--nocapture"])
         .env("PT_FAKE_DAEMON_SOCKET", &sock)
         .uid(NOBODY)
@@ -786,8 +808,9 @@ fn strangers_are_refused_by_uid_and_groups_and_supplementary_members_let_in() {
     std::fs::set_permissions(&daemon.socket, std::fs::Permissions::from_mode(0o666))
         .expect("chmod");
     use std::os::unix::process::CommandExt;
+    let console = runnable_by_anyone(dir.path(), Path::new(env!("CARGO_BIN_EXE_pt-console")));
     let as_user = |uid: u32, gid: u32| {
-        Command::new(env!("CARGO_BIN_EXE_pt-console"))
+        Command::new(&console)
             .args(["status", "--json", "--socket"])
             .arg(&daemon.socket)
             .uid(uid)
