@@ -63,6 +63,13 @@ const MIN_LOOKAHEAD_M: f64 = 0.02;
 /// A fix weaker than this fraction of the artery's usual SNR is refused.
 const USUAL_SNR_FRACTION: f64 = 0.5;
 
+/// A pulse whose amplitude is below this fraction of the artery's usual one is never
+/// reported: the kernel's far tail of an artery beyond the array's reach (or a neighbour)
+/// fits a weak peak on the array. The artery's own amplitude changes far less than this
+/// along a track (depth, tube and contact load change slowly); those seen at the array's
+/// edge after a loss were a tenth of it.
+const FAINT_FRACTION: f64 = 0.35;
+
 /// A beat later (or earlier) than this many times the usual RMS lateness is refused, but
 /// never for less than `MIN_LATE_FRACTION` of a period; the RMS starts at
 /// `INITIAL_LATE_FRACTION` of a period.
@@ -110,6 +117,8 @@ pub enum Miss {
     Untimed,
     #[error("an untimed fix surprised the path model (normalized innovation squared {nis:.1})")]
     UntimedSurprise { nis: f64 },
+    #[error("a pulse of {amplitude_n:.4} N is far below this artery's usual {usual_n:.4} N")]
+    Faint { amplitude_n: f64, usual_n: f64 },
     #[error("no believed sensor position in the window")]
     NoPosition,
     #[error("no path model")]
@@ -139,7 +148,7 @@ enum State {
         speed_m_s: f64,
     },
     /// Holding after losing the pulse, until at rest; then a search (`attempt` 1 here, 2
-    /// back at the last fix).
+    /// back at the last fix, 3 a short probe ahead of it: see `machine/lost.rs`).
     Stopping {
         frames: u64,
         attempt: usize,
@@ -148,10 +157,12 @@ enum State {
         since_s: Option<f64>,
         attempt: usize,
     },
-    /// Going back to the last fix.
+    /// Going to where the next search at rest is made (back to the last fix, or the probe
+    /// ahead of it).
     Returning {
         target: SurfacePoint,
         frames: u64,
+        attempt: usize,
     },
     Finished(EndReason),
 }
@@ -167,6 +178,8 @@ struct Pulse {
     snr_per_beat: f64,
     /// RMS of the beats' lateness against the clock, s.
     late_rms_s: f64,
+    /// The artery's usual pulse amplitude at the kernel's peak, N.
+    amplitude_n: f64,
     reported_period_s: f64,
 }
 
@@ -188,6 +201,8 @@ pub struct BeatSlide {
     seed_points: Vec<SurfacePoint>,
     seed_sensors: Vec<SurfacePoint>,
     filter: Option<PathFilter>,
+    /// The artery as re-found back at the last fix, while probing ahead of it.
+    anchor: Option<Observation>,
     last_fix: Option<SurfacePoint>,
     path_length_m: f64,
     progress_mark_m: f64,
@@ -234,6 +249,7 @@ impl BeatSlide {
             seed_points: Vec::with_capacity(MAX_SEEDS),
             seed_sensors: Vec::with_capacity(MAX_SEEDS),
             filter: None,
+            anchor: None,
             last_fix: None,
             path_length_m: 0.0,
             progress_mark_m: 0.0,
@@ -368,6 +384,7 @@ impl BeatSlide {
                 template_pp: peak_to_peak(&found.waveform),
                 snr_per_beat,
                 late_rms_s: INITIAL_LATE_FRACTION * found.phase.period_s,
+                amplitude_n: fit.amplitude * peak_to_peak(&found.waveform),
                 reported_period_s: f64::NAN,
             },
             Some(mut p) => {
@@ -389,6 +406,21 @@ impl BeatSlide {
         };
         self.choose_beats_per_fix();
         self.report_period(t_s);
+    }
+
+    /// Refuse a pulse far weaker than this artery's usual one (no usual one yet: anything).
+    fn check_amplitude(&self, fit: &KernelFit) -> Result<(), Miss> {
+        let Some(p) = self.pulse else {
+            return Ok(());
+        };
+        let amplitude_n = fit.amplitude * p.template_pp;
+        if amplitude_n.is_nan() || amplitude_n < FAINT_FRACTION * p.amplitude_n {
+            return Err(Miss::Faint {
+                amplitude_n,
+                usual_n: p.amplitude_n,
+            });
+        }
+        Ok(())
     }
 
     fn report_period(&mut self, t_s: f64) {
@@ -565,6 +597,21 @@ impl BeatSlide {
     }
 }
 
+/// The path filter's settings from the tracker's.
+pub(super) fn filter_settings(p: &BeatSlideParams) -> PathFilterSettings {
+    PathFilterSettings {
+        offset_prior_m: 0.002,
+        slope_prior: 0.3,
+        curvature_prior_per_m: p.curvature_prior_per_m,
+        curvature_walk: p.curvature_walk,
+        lag_prior_m: p.lag_prior_m,
+        lag_prior_sd_m: p.lag_prior_sd_m,
+        lag_walk: p.lag_walk,
+        gate_sigma: p.gate_sigma,
+        gate_min_m: p.gate_min_m,
+    }
+}
+
 /// Peak-to-peak of a waveform over one cycle.
 fn peak_to_peak(w: &Waveform) -> f64 {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -717,17 +764,7 @@ impl Tracker for BeatSlide {
         // (the first mark's lag is unknown, as its approach was not seen), and their
         // uncertainty is in the filter's observations.
         let spacing_m = self.seed_sensors[n - 2].distance_to(&self.seed_sensors[n - 1]);
-        let settings = PathFilterSettings {
-            offset_prior_m: 0.002,
-            slope_prior: 0.3,
-            curvature_prior_per_m: self.params.curvature_prior_per_m,
-            curvature_walk: self.params.curvature_walk,
-            lag_prior_m: self.params.lag_prior_m,
-            lag_prior_sd_m: self.params.lag_prior_sd_m,
-            lag_walk: self.params.lag_walk,
-            gate_sigma: self.params.gate_sigma,
-            gate_min_m: self.params.gate_min_m,
-        };
+        let settings = filter_settings(&self.params);
         let too_close = TrackerError::SeedsTooClose {
             distance_m: spacing_m,
             min_m: self.geometry.pitch_m,
@@ -813,7 +850,11 @@ impl Tracker for BeatSlide {
             State::Sliding { .. } => self.step_sliding(input),
             State::Stopping { frames, attempt } => self.step_stopping(input, frames, attempt),
             State::Searching { since_s, attempt } => self.step_searching(input, since_s, attempt),
-            State::Returning { target, frames } => self.step_returning(input, target, frames),
+            State::Returning {
+                target,
+                frames,
+                attempt,
+            } => self.step_returning(input, target, frames, attempt),
         }
         TrackerOutput {
             motion: self.motion(),
@@ -856,18 +897,7 @@ mod tests {
     /// A tracker seeded on an artery along x at z = 0 (points 5 mm apart, sliding +x).
     fn seeded() -> BeatSlide {
         let mut t = tracker(0.0).unwrap();
-        let p = t.params;
-        let settings = PathFilterSettings {
-            offset_prior_m: 0.002,
-            slope_prior: 0.3,
-            curvature_prior_per_m: p.curvature_prior_per_m,
-            curvature_walk: p.curvature_walk,
-            lag_prior_m: p.lag_prior_m,
-            lag_prior_sd_m: p.lag_prior_sd_m,
-            lag_walk: p.lag_walk,
-            gate_sigma: p.gate_sigma,
-            gate_min_m: p.gate_min_m,
-        };
+        let settings = filter_settings(&t.params);
         let seeds: Vec<Observation> = [0.0, 0.005]
             .iter()
             .map(|&x| Observation {

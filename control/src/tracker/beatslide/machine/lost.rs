@@ -1,7 +1,21 @@
-//! `beatslide` after the pulse is lost while sliding: stop, search at rest, go back to the
-//! last fix and search there, and end `Lost` at rest if that fails too.
+//! `beatslide` after the pulse is lost while sliding: where can the artery be?
+//!
+//! 1. Stop and search at rest where it stopped. A pulse found there on the predicted path
+//!    continues the track; one found off it (the array reaches ±9 mm) is a bend: the path
+//!    model is re-seeded from the last fix to it.
+//! 2. Nothing there: go back to the last fix and search there.
+//! 3. Found there: the heading that lost it is wrong, so do not leave along it again. Probe a
+//!    short step ahead (`PROBE_M`; the array then sees turns of up to about 45 degrees) and
+//!    search at rest, and re-seed the path model on the two points, as the surgeon's two
+//!    placements seed it.
+//!
+//! Any search that finds nothing, or a pulse far weaker than this artery's, ends the track
+//! `Lost`, at rest: a point is reported only where the array felt this artery.
 
 use super::*;
+
+/// How far ahead of the re-found last fix the probe is made, m.
+const PROBE_M: f64 = 0.008;
 
 impl BeatSlide {
     pub(super) fn step_stopping(&mut self, input: &TrackerInput<'_>, frames: u64, attempt: usize) {
@@ -18,6 +32,70 @@ impl BeatSlide {
         }
     }
 
+    /// A search at rest since `since` that found this artery on the array, as an
+    /// observation.
+    fn refound(
+        &mut self,
+        since: f64,
+    ) -> Result<(PulseFound, KernelFit, SurfacePoint, Observation), Miss> {
+        let (found, fit, sensor) = self.search_at_rest(since)?;
+        self.check_amplitude(&fit)?;
+        // Re-finding the artery needs it on the array, not at its edge.
+        if !(fit.element >= -0.5 && fit.element <= crate::types::ELEMENTS as f64 - 0.5)
+            || fit.offset_se_m >= 2.0 * self.geometry.pitch_m
+        {
+            return Err(Miss::AtEdge {
+                element: fit.element,
+            });
+        }
+        let observation = Observation {
+            point: SurfacePoint::new(sensor.x_m, sensor.z_m + fit.offset_z_m),
+            sd_m: self.fix_sd(&fit),
+            lag_dir: self.history.since(since).mean_lag(),
+        };
+        Ok((found, fit, sensor, observation))
+    }
+
+    /// Start the path model afresh from two observations (the heading along their chord),
+    /// keeping what it learned of the sensor's lag. Returns `to`'s artery point.
+    fn reseed(&mut self, from: Observation, to: Observation) -> Result<SurfacePoint, Miss> {
+        let filter = self.filter.as_ref().ok_or(Miss::NoModel)?;
+        if from.point.distance_to(&to.point) < self.geometry.pitch_m {
+            return Err(Miss::OffPath(PathFilterError::NoDirection));
+        }
+        let mut settings = filter_settings(&self.params);
+        settings.lag_prior_m = filter.lag_m();
+        settings.lag_prior_sd_m = filter.lag_sd_m().max(1e-4);
+        let fresh = PathFilter::from_observations(&[from, to], f64::NAN, settings)?;
+        let point = fresh.corrected(&to);
+        self.filter = Some(fresh);
+        Ok(point)
+    }
+
+    /// Where it stopped: on the predicted path (widened, as it may have drifted while the
+    /// pulse was missing), or else a bend from the last fix.
+    fn refound_where_stopped(&mut self, observation: Observation) -> Result<SurfacePoint, Miss> {
+        let filter = self.filter.as_mut().ok_or(Miss::NoModel)?;
+        let mut widened = *filter;
+        widened.inflate(2.0);
+        match widened.update(&observation) {
+            Ok(_) => {
+                *filter = widened;
+                Ok(filter.corrected(&observation))
+            }
+            Err(PathFilterError::OutsideGate { .. }) => {
+                let last = self.last_fix.ok_or(Miss::NoModel)?;
+                let from = Observation {
+                    point: last,
+                    sd_m: self.params.fix_floor_m,
+                    lag_dir: [0.0, 0.0],
+                };
+                self.reseed(from, observation)
+            }
+            Err(e) => Err(e.into()),
+        }
+    }
+
     pub(super) fn step_searching(
         &mut self,
         input: &TrackerInput<'_>,
@@ -30,53 +108,25 @@ impl BeatSlide {
         let Some(since) = ready else {
             return;
         };
-        let found = self.search_at_rest(since).and_then(|(found, fit, sensor)| {
-            // Re-finding the artery needs it on the array, not at its edge.
-            if !(fit.element >= -0.5 && fit.element <= crate::types::ELEMENTS as f64 - 0.5)
-                || fit.offset_se_m >= 2.0 * self.geometry.pitch_m
-            {
-                return Err(Miss::AtEdge {
-                    element: fit.element,
-                });
-            }
-            let observation = Observation {
-                point: SurfacePoint::new(sensor.x_m, sensor.z_m + fit.offset_z_m),
-                sd_m: self.fix_sd(&fit),
-                lag_dir: self.history.since(since).mean_lag(),
-            };
-            let filter = self.filter.as_mut().ok_or(Miss::NoModel)?;
-            // The model may have drifted while the pulse was missing: widen it first.
-            let mut widened = *filter;
-            widened.inflate(2.0);
-            widened.update(&observation)?;
-            *filter = widened;
-            Ok((found, fit, sensor, filter.corrected(&observation)))
-        });
-        match found {
-            Ok((found, fit, sensor, point)) => {
-                self.learn_pulse(&found, &fit, t - since, t);
-                let located = self.located(t, point, sensor, &fit, false);
-                self.record(point);
-                self.emit(TrackerEvent::Located(located));
-                if attempt > 1 {
-                    self.returns += 1;
-                    self.progress_mark_m = self.path_length_m;
-                }
-                if self.length_reached() {
-                    self.finish(EndReason::LengthReached, t);
-                } else if self.returns > self.params.max_returns {
-                    self.last_miss = Some(Miss::NoProgress);
-                    self.finish(EndReason::Lost, t);
-                } else {
-                    // Carry on more carefully.
-                    self.speed_cap_m_s = (0.5 * self.speed_cap_m_s)
-                        .max(MIN_TRAVEL_PER_FIX_M / self.window_len_s().max(1e-3));
-                    self.start_sliding(input.sensor, t);
-                    if let State::Sliding { from_s, .. } = &mut self.state {
-                        *from_s = Some(t);
+        let found = self
+            .refound(since)
+            .and_then(|(found, fit, sensor, observation)| {
+                let point = match attempt {
+                    1 => self.refound_where_stopped(observation)?,
+                    2 => {
+                        let filter = self.filter.as_ref().ok_or(Miss::NoModel)?;
+                        self.anchor = Some(observation);
+                        filter.corrected(&observation)
                     }
-                }
-            }
+                    _ => {
+                        let anchor = self.anchor.take().ok_or(Miss::NoModel)?;
+                        self.reseed(anchor, observation)?
+                    }
+                };
+                Ok((found, fit, sensor, point))
+            });
+        let (found, fit, sensor, point) = match found {
+            Ok(f) => f,
             Err(why) => {
                 self.last_miss = Some(why);
                 let at = self
@@ -91,11 +141,56 @@ impl BeatSlide {
                         self.state = State::Returning {
                             target: toward,
                             frames: 0,
+                            attempt: 2,
                         };
                     }
                     _ => self.finish(EndReason::Lost, t),
                 }
+                return;
             }
+        };
+        self.learn_pulse(&found, &fit, t - since, t);
+        let located = self.located(t, point, sensor, &fit, false);
+        self.record(point);
+        self.emit(TrackerEvent::Located(located));
+        if self.length_reached() {
+            self.finish(EndReason::LengthReached, t);
+            return;
+        }
+        if attempt == 2 {
+            self.returns += 1;
+            self.progress_mark_m = self.path_length_m;
+            if self.returns > self.params.max_returns {
+                self.last_miss = Some(Miss::NoProgress);
+                self.finish(EndReason::Lost, t);
+                return;
+            }
+            // The probe: a short step ahead along the path as now modelled.
+            let heading = self.filter.as_ref().map(|f| {
+                let (s, _) = f.to_local(point);
+                f.predict(s).heading_rad
+            });
+            match heading {
+                Some(h) if h.is_finite() => {
+                    self.state = State::Returning {
+                        target: SurfacePoint::new(
+                            point.x_m + PROBE_M * h.cos(),
+                            point.z_m + PROBE_M * h.sin(),
+                        ),
+                        frames: 0,
+                        attempt: 3,
+                    };
+                }
+                _ => self.finish(EndReason::Lost, t),
+            }
+            return;
+        }
+        // Carry on more carefully.
+        self.speed_cap_m_s =
+            (0.5 * self.speed_cap_m_s).max(MIN_TRAVEL_PER_FIX_M / self.window_len_s().max(1e-3));
+        self.start_sliding(input.sensor, t);
+        if let State::Sliding { from_s, .. } = &mut self.state {
+            *from_s = Some(t);
         }
     }
 
@@ -104,16 +199,18 @@ impl BeatSlide {
         input: &TrackerInput<'_>,
         target: SurfacePoint,
         frames: u64,
+        attempt: usize,
     ) {
         if frames > 0 && input.settled {
             self.state = State::Searching {
                 since_s: Some(input.frame.t_s),
-                attempt: 2,
+                attempt,
             };
         } else {
             self.state = State::Returning {
                 target,
                 frames: frames.saturating_add(1),
+                attempt,
             };
         }
     }

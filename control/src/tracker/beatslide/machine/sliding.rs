@@ -217,6 +217,9 @@ impl BeatSlide {
         if k.at_edge || !k.offset_se_m.is_finite() {
             return Err(Miss::AtEdge { element: k.element });
         }
+        if !untimed {
+            self.check_amplitude(k)?;
+        }
         // A beat far off the clock, for a clock that usually keeps time, and weaker than
         // usual, is a window spoiled by something else (the artery sweeping across the
         // array, a lump). A clear beat off the clock is the heart changing its rate.
@@ -275,6 +278,10 @@ impl BeatSlide {
             let confidence = (fix.kernel.snr() / self.params.target_snr).powi(2).min(1.0);
             p.clock.correct(fix.t_mid_s, fix.late_s, confidence);
             p.late_rms_s = (0.8 * p.late_rms_s.powi(2) + 0.2 * fix.late_s.powi(2)).sqrt();
+            if fix.aligned.norm() > 0.0 {
+                // Timed fixes only: an untimed one's amplitude is a swing, not a peak.
+                p.amplitude_n = 0.8 * p.amplitude_n + 0.2 * fix.kernel.amplitude * p.template_pp;
+            }
             let snr_beat = fix.kernel.snr() / beats.sqrt();
             p.snr_per_beat = 0.7 * p.snr_per_beat + 0.3 * snr_beat;
             let norm = fix.aligned.norm();
