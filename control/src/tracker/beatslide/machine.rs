@@ -972,6 +972,65 @@ mod tests {
         assert_ne!(confirming.filter, base.filter);
     }
 
+    /// `seeded()` with a pulse whose usual amplitude is `usual_n`, one beat per fix.
+    fn with_pulse(usual_n: f64) -> BeatSlide {
+        let mut t = seeded();
+        let mut template = Waveform::zeros();
+        template[1] = 1.0;
+        let template_pp = peak_to_peak(&template);
+        t.pulse = Some(Pulse {
+            clock: BeatClock::new(
+                crate::signal::harmonic::PulsePhase {
+                    t_ref_s: 0.0,
+                    period_s: 1.0,
+                },
+                BeatClockSettings::default(),
+            ),
+            template,
+            template_pp,
+            snr_per_beat: 10.0,
+            late_rms_s: 0.05,
+            amplitude_n: usual_n,
+            reported_period_s: 1.0,
+        });
+        t.beats_per_fix = 1;
+        t
+    }
+
+    #[test]
+    fn a_faint_pulse_is_never_reported_however_clear_or_well_placed() {
+        let base = with_pulse(0.08);
+        let pp = base.pulse.map(|p| p.template_pp).unwrap();
+        // The far tail of an artery beyond the array's reach: a tenth of the usual amplitude,
+        // but measured so well (SNR 10) and so near the predicted path that only its
+        // amplitude gives it away.
+        let mut faint = fix(0.0);
+        faint.kernel.amplitude = 0.008 / pp;
+        faint.kernel.amplitude_se = faint.kernel.amplitude / 10.0;
+        let mut t = base.clone();
+        let why = t.accept(&faint, false);
+        assert!(
+            matches!(why, Err(Miss::Faint { amplitude_n, usual_n })
+                if (amplitude_n - 0.008).abs() < 1e-12 && usual_n == 0.08),
+            "{why:?}"
+        );
+        assert_eq!(t.filter, base.filter, "a refused fix leaves the path model alone");
+        // At the edge of the gate: just above the fraction is taken, just below refused.
+        for (fraction, taken) in [(FAINT_FRACTION * 1.01, true), (FAINT_FRACTION * 0.99, false)] {
+            let mut f = fix(0.0);
+            f.kernel.amplitude = fraction * 0.08 / pp;
+            f.kernel.amplitude_se = f.kernel.amplitude / 10.0;
+            let mut t = base.clone();
+            assert_eq!(t.accept(&f, false).is_ok(), taken, "{fraction}");
+        }
+        // The same check guards the searches at rest.
+        let mut weak = fix(0.0).kernel;
+        weak.amplitude = 0.1 * 0.08 / pp;
+        assert!(matches!(base.check_amplitude(&weak), Err(Miss::Faint { .. })));
+        // Before any pulse is known (the first mark) there is nothing to compare with.
+        assert!(seeded().check_amplitude(&weak).is_ok());
+    }
+
     #[test]
     fn bad_tilt_deflection_is_refused() {
         for bad in [-0.01, 0.5, f64::NAN, f64::INFINITY] {
