@@ -119,6 +119,13 @@ pub struct PulseSearch {
     beats: BeatIntervals,
 }
 
+/// A longer period than the harmonic search's is taken from the beat intervals only if
+/// its harmonic statistic is this many times higher: a period of half the heart's misses
+/// the fundamental (a pulse whose second harmonic is 1.3 times its fundamental scores
+/// about 1.6 times higher at its true period), while two beats of an irregular heart
+/// score about as well as one.
+const LONGER_PERIOD_GAIN: f64 = 1.3;
+
 /// Weight of the earlier windows' beat intervals when a new window is pooled.
 const BEATS_RETAIN: f64 = 0.5;
 
@@ -203,13 +210,27 @@ impl PulseSearch {
             });
         }
         // The beat-interval check: where the beats' autocorrelation puts the period
-        // elsewhere (a multiple or a sub-multiple of the harmonic search's), the harmonic
-        // search is repeated around it for precision.
+        // elsewhere, the harmonic search is repeated around it for precision. A shorter
+        // period is taken on the autocorrelation's word, even outside the range searched
+        // (it already preferred the shortest well-supported peak; a search narrowed
+        // around a clock at half the heart's rate must be able to leave it). A longer one
+        // needs more: a few irregular beats can lift the correlation at two beats, and
+        // the harmonics of two beats fit an irregular pulse about as well as those of
+        // one (measured: in the fast-irregular-heart family, searches narrowed around the
+        // right period moved to twice it). So it must lie within the range searched and
+        // the harmonics must fit it clearly better ([`LONGER_PERIOD_GAIN`]), as they do
+        // when the shorter period was half the heart's (its harmonics miss the
+        // fundamental).
         let f_best = match self.beat_period(&bounds, f_best, window_hi, settings) {
             Some(p) if !beat_interval::agree(p, 1.0 / f_best) => {
+                let longer = p > 1.0 / f_best;
                 let (p_lo, p_hi) = (
                     (p / (1.0 + beat_interval::TOLERANCE)).max(settings.plausible_min_period_s),
-                    (p * (1.0 + beat_interval::TOLERANCE)).min(window_hi.max(p)),
+                    (p * (1.0 + beat_interval::TOLERANCE)).min(if longer {
+                        hi
+                    } else {
+                        window_hi.max(p)
+                    }),
                 );
                 if p_lo < p_hi {
                     let stat_at = |f: f64| -> f64 {
@@ -219,7 +240,12 @@ impl PulseSearch {
                             })
                             .unwrap_or(f64::NEG_INFINITY)
                     };
-                    argmax(&stat_at, 1.0 / p_hi, 1.0 / p_lo, df).1
+                    let (stat, f) = argmax(&stat_at, 1.0 / p_hi, 1.0 / p_lo, df);
+                    if !longer || stat > LONGER_PERIOD_GAIN * statistic {
+                        f
+                    } else {
+                        f_best
+                    }
                 } else {
                     f_best
                 }
