@@ -37,6 +37,8 @@ fn main() {
             .ok()
             .and_then(|s| s.parse().ok())
             .unwrap_or(12.0),
+        plausible_min_period_s: 0.45,
+        plausible_max_period_s: 2.2,
     };
     let mut search = PulseSearch::new(4000);
     let mut noise = NoiseLevel::new(4000);
@@ -58,6 +60,8 @@ fn main() {
             };
             let frames = acquisition(&spec, rng.uniform(), 10.0, 0, &mut rng);
             let sigma = noise.estimate(frames.iter()).unwrap_or(0.012).max(0.012);
+            // Every window is another heart: no pooling of beat intervals.
+            search.forget_beats();
             let s = match search.search(frames.iter(), sigma, &settings) {
                 Err(SearchMiss::BelowThreshold { statistic, .. }) => statistic,
                 Ok(found) => found.statistic,
@@ -122,6 +126,7 @@ fn main() {
                     };
                     let frames = acquisition(&spec, rng.uniform(), 10.0, 0, &mut rng);
                     let sigma = noise.estimate(frames.iter()).unwrap_or(0.012).max(0.012);
+                    search.forget_beats();
                     let Ok(found) = search.search(frames.iter(), sigma, &settings) else {
                         continue;
                     };

@@ -15,6 +15,7 @@
 pub mod analysis;
 pub mod bandpass;
 pub mod beat_clock;
+pub mod beat_interval;
 pub mod detect;
 pub mod harmonic;
 pub mod kernel_fit;

@@ -27,6 +27,7 @@
 
 use nalgebra::{SMatrix, SVector, SymmetricEigen};
 
+use super::beat_interval::{self, BeatIntervals};
 use super::harmonic::{
     COEFFS, HarmonicFit, Projection, PulsePhase, Trend, Waveform, fundamental_delay_rad,
     shift_waveform,
@@ -51,6 +52,11 @@ pub struct PulseSearchSettings {
     /// are cut into sub-windows of about this length, fitted each with its own phase, and
     /// pooled through their common spatial pattern (a heart's rate wanders).
     pub coherent_s: f64,
+    /// The heart's plausible periods, s: the beat-interval check ([`beat_interval`]) looks
+    /// here whatever `min_period_s..max_period_s` is, so that a search narrowed around a
+    /// wrong period (twice the heart's) can still return the heart's.
+    pub plausible_min_period_s: f64,
+    pub plausible_max_period_s: f64,
 }
 
 /// A pulse found in a window.
@@ -107,17 +113,45 @@ pub enum SearchMiss {
 #[derive(Debug, Clone)]
 pub struct PulseSearch {
     blocks: Vec<TactileFrame>,
+    /// The blocks combined with the pulse's spatial pattern.
+    combined: Vec<f64>,
+    /// The beat intervals of the windows searched so far (see [`PulseSearch::search`]).
+    beats: BeatIntervals,
 }
+
+/// A longer period than the harmonic search's is taken from the beat intervals only if
+/// its harmonic statistic is this many times higher: a period of half the heart's misses
+/// the fundamental (a pulse whose second harmonic is 1.3 times its fundamental scores
+/// about 1.6 times higher at its true period), while two beats of an irregular heart
+/// score about as well as one.
+const LONGER_PERIOD_GAIN: f64 = 1.3;
+
+/// Weight of the earlier windows' beat intervals when a new window is pooled.
+const BEATS_RETAIN: f64 = 0.5;
+
+/// Most lags the beat-interval check evaluates (2.2 s at 100 Hz undecimated fits).
+const MAX_LAGS: usize = 512;
 
 impl PulseSearch {
     /// A search for windows of up to `max_frames` frames.
     pub fn new(max_frames: usize) -> Self {
+        let n = max_frames.max(1);
         Self {
-            blocks: Vec::with_capacity(max_frames.max(1)),
+            blocks: Vec::with_capacity(n),
+            combined: vec![0.0; n],
+            beats: BeatIntervals::new(n, MAX_LAGS),
         }
     }
 
+    /// Forget the beat intervals pooled from earlier searches (another heart).
+    pub fn forget_beats(&mut self) {
+        self.beats.forget();
+    }
+
     /// Search the frames (time order) for a pulse; `noise_sd_n` is one element's noise SD.
+    /// The period is checked against the beat intervals of this window pooled with those
+    /// of the earlier searches (the same heart; [`PulseSearch::forget_beats`] to start
+    /// afresh).
     pub fn search<'a>(
         &mut self,
         frames: impl Iterator<Item = &'a TactileFrame> + Clone,
@@ -148,7 +182,9 @@ impl PulseSearch {
         };
         let m = ((span / coherent).floor() as usize).clamp(1, MAX_SUBWINDOWS);
         let sub_span = span / m as f64;
-        let hi = hi.min(sub_span / settings.min_cycles.max(1.0));
+        // The longest period the window holds enough cycles of.
+        let window_hi = sub_span / settings.min_cycles.max(1.0);
+        let hi = hi.min(window_hi);
         if hi.is_nan() || hi <= lo {
             return Err(SearchMiss::TooShort);
         }
@@ -157,8 +193,6 @@ impl PulseSearch {
         // Frequency grid: a tenth of a cycle of drift across a sub-window per step.
         let (f_lo, f_hi) = (1.0 / hi, 1.0 / lo);
         let df = 0.1 / sub_span;
-        let n = ((f_hi - f_lo) / df).ceil().max(1.0) as usize;
-        let freq = |i: usize| f_lo + (f_hi - f_lo) * i as f64 / n as f64;
         let blocks = &self.blocks;
         let stat_at = |f: f64| -> f64 {
             spatial_scatter(blocks.iter(), &bounds, f)
@@ -167,26 +201,7 @@ impl PulseSearch {
                 })
                 .unwrap_or(f64::NEG_INFINITY)
         };
-        let mut best = (f64::NEG_INFINITY, 0usize);
-        for i in 0..=n {
-            let s = stat_at(freq(i));
-            if s > best.0 {
-                best = (s, i);
-            }
-        }
-        let (stat, i) = best;
-        // Parabolic refinement of the frequency between the grid neighbours.
-        let mut f_best = freq(i);
-        if i > 0 && i < n {
-            let below = stat_at(freq(i - 1));
-            let above = stat_at(freq(i + 1));
-            let denom = below - 2.0 * stat + above;
-            if denom < 0.0 {
-                let shift = (0.5 * (below - above) / denom).clamp(-0.5, 0.5);
-                f_best += shift * (f_hi - f_lo) / n as f64;
-            }
-        }
-        let statistic = stat.max(stat_at(f_best));
+        let (statistic, f_best) = argmax(&stat_at, f_lo, f_hi, df);
         if statistic.is_nan() || statistic <= settings.threshold {
             return Err(SearchMiss::BelowThreshold {
                 statistic,
@@ -194,7 +209,82 @@ impl PulseSearch {
                 threshold: settings.threshold,
             });
         }
+        // The beat-interval check: where the beats' autocorrelation puts the period
+        // elsewhere, the harmonic search is repeated around it for precision. A shorter
+        // period is taken on the autocorrelation's word, even outside the range searched
+        // (it already preferred the shortest well-supported peak; a search narrowed
+        // around a clock at half the heart's rate must be able to leave it). A longer one
+        // needs more: a few irregular beats can lift the correlation at two beats, and
+        // the harmonics of two beats fit an irregular pulse about as well as those of
+        // one (measured: in the fast-irregular-heart family, searches narrowed around the
+        // right period moved to twice it). So it must lie within the range searched and
+        // the harmonics must fit it clearly better ([`LONGER_PERIOD_GAIN`]), as they do
+        // when the shorter period was half the heart's (its harmonics miss the
+        // fundamental).
+        let f_best = match self.beat_period(&bounds, f_best, window_hi, settings) {
+            Some(p) if !beat_interval::agree(p, 1.0 / f_best) => {
+                let longer = p > 1.0 / f_best;
+                let (p_lo, p_hi) = (
+                    (p / (1.0 + beat_interval::TOLERANCE)).max(settings.plausible_min_period_s),
+                    (p * (1.0 + beat_interval::TOLERANCE)).min(if longer {
+                        hi
+                    } else {
+                        window_hi.max(p)
+                    }),
+                );
+                if p_lo < p_hi {
+                    let stat_at = |f: f64| -> f64 {
+                        spatial_scatter(self.blocks.iter(), &bounds, f)
+                            .and_then(|(scatter, dof)| {
+                                leading_eigen(&scatter).map(|(l, _)| normalized(l / block_var, dof))
+                            })
+                            .unwrap_or(f64::NEG_INFINITY)
+                    };
+                    let (stat, f) = argmax(&stat_at, 1.0 / p_hi, 1.0 / p_lo, df);
+                    if !longer || stat > LONGER_PERIOD_GAIN * statistic {
+                        f
+                    } else {
+                        f_best
+                    }
+                } else {
+                    f_best
+                }
+            }
+            _ => f_best,
+        };
         self.describe(frames, &bounds, f_best, statistic, noise_sd_n)
+    }
+
+    /// The beat period by the autocorrelation of the blocks combined with the spatial
+    /// pattern at `f`, over the plausible periods up to `hi` (the longest the window
+    /// holds enough cycles of); `None` when the beats do not correlate clearly.
+    fn beat_period(
+        &mut self,
+        bounds: &Bounds,
+        f: f64,
+        hi: f64,
+        settings: &PulseSearchSettings,
+    ) -> Option<f64> {
+        let (scatter, _) = spatial_scatter(self.blocks.iter(), bounds, f)?;
+        let (_, pattern) = leading_eigen(&scatter)?;
+        let n = self.blocks.len().min(self.combined.len());
+        for (y, b) in self.combined.iter_mut().zip(&self.blocks) {
+            *y = (0..ELEMENTS).map(|e| pattern[e] * b.force_n[e]).sum();
+        }
+        let (first, last) = (self.blocks.first()?, self.blocks.last()?);
+        let dt = (last.t_s - first.t_s) / (n.max(2) - 1) as f64;
+        let (lo, hi) = (
+            settings.plausible_min_period_s,
+            settings.plausible_max_period_s.min(hi),
+        );
+        if !self
+            .beats
+            .add(&self.combined[..n], dt, lo, hi, BEATS_RETAIN)
+        {
+            return None;
+        }
+        let acf = self.beats.autocorrelation(lo, hi)?;
+        acf.beat_period().map(|b| b.period_s)
     }
 
     /// The pulse at frequency `f`: its spatial pattern from all sub-windows, each
@@ -318,6 +408,32 @@ impl PulseSearch {
             }
         }
     }
+}
+
+/// The frequency in `f_lo..=f_hi` (grid step about `df`, refined by a parabola between
+/// the grid neighbours) where `stat_at` is largest, and that largest value.
+fn argmax(stat_at: &impl Fn(f64) -> f64, f_lo: f64, f_hi: f64, df: f64) -> (f64, f64) {
+    let n = ((f_hi - f_lo) / df).ceil().max(1.0) as usize;
+    let freq = |i: usize| f_lo + (f_hi - f_lo) * i as f64 / n as f64;
+    let mut best = (f64::NEG_INFINITY, 0usize);
+    for i in 0..=n {
+        let s = stat_at(freq(i));
+        if s > best.0 {
+            best = (s, i);
+        }
+    }
+    let (stat, i) = best;
+    let mut f_best = freq(i);
+    if i > 0 && i < n {
+        let below = stat_at(freq(i - 1));
+        let above = stat_at(freq(i + 1));
+        let denom = below - 2.0 * stat + above;
+        if denom < 0.0 {
+            let shift = (0.5 * (below - above) / denom).clamp(-0.5, 0.5);
+            f_best += shift * (f_hi - f_lo) / n as f64;
+        }
+    }
+    (stat.max(stat_at(f_best)), f_best)
 }
 
 /// Most sub-windows a search splits a window into.

@@ -329,6 +329,8 @@ impl BeatSlide {
             decimation: SEARCH_DECIMATION,
             min_cycles: MIN_CYCLES,
             coherent_s: self.params.coherent_s,
+            plausible_min_period_s: self.params.min_period_s,
+            plausible_max_period_s: self.params.max_period_s,
         }
     }
 
