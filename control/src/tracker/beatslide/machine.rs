@@ -1016,9 +1016,15 @@ mod tests {
                 if (amplitude_n - 0.008).abs() < 1e-12 && usual_n == 0.08),
             "{why:?}"
         );
-        assert_eq!(t.filter, base.filter, "a refused fix leaves the path model alone");
+        assert_eq!(
+            t.filter, base.filter,
+            "a refused fix leaves the path model alone"
+        );
         // At the edge of the gate: just above the fraction is taken, just below refused.
-        for (fraction, taken) in [(FAINT_FRACTION * 1.01, true), (FAINT_FRACTION * 0.99, false)] {
+        for (fraction, taken) in [
+            (FAINT_FRACTION * 1.01, true),
+            (FAINT_FRACTION * 0.99, false),
+        ] {
             let mut f = fix(0.0);
             f.kernel.amplitude = fraction * 0.08 / pp;
             f.kernel.amplitude_se = f.kernel.amplitude / 10.0;
@@ -1028,7 +1034,10 @@ mod tests {
         // The same check guards the searches at rest.
         let mut weak = fix(0.0).kernel;
         weak.amplitude = 0.1 * 0.08 / pp;
-        assert!(matches!(base.check_amplitude(&weak), Err(Miss::Faint { .. })));
+        assert!(matches!(
+            base.check_amplitude(&weak),
+            Err(Miss::Faint { .. })
+        ));
         // Before any pulse is known (the first mark) there is nothing to compare with.
         assert!(seeded().check_amplitude(&weak).is_ok());
     }
