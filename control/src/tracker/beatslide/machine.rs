@@ -537,7 +537,7 @@ impl BeatSlide {
                 let lag = self.params.lag_prior_m;
                 let point =
                     SurfacePoint::new(raw.x_m - lag * lag_dir[0], raw.z_m - lag * lag_dir[1]);
-                let located = self.located(t, point, sensor, &fit, true);
+                let located = self.located(0.5 * (since + t), point, sensor, &fit, true);
                 if self.seeds.len() == MAX_SEEDS {
                     self.seeds.remove(0);
                     self.seed_points.remove(0);

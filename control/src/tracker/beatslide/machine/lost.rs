@@ -150,7 +150,7 @@ impl BeatSlide {
             }
         };
         self.learn_pulse(&found, &fit, t - since, t);
-        let located = self.located(t, point, sensor, &fit, false);
+        let located = self.located(0.5 * (since + t), point, sensor, &fit, false);
         self.record(point);
         self.emit(TrackerEvent::Located(located));
         if self.length_reached() {
