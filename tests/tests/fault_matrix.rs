@@ -59,6 +59,22 @@ fn dir_line(dir: &Path) -> String {
 }
 
 /// A tmpfs of `bytes` at `at` (root only), unmounted when dropped.
+/// A temporary folder with `trials/` in it on a tmpfs of `bytes`; `None` when not root (the
+/// test is skipped, saying that `what` needs root).
+fn trials_on_a_small_disk(
+    bytes: u64,
+    what: &str,
+) -> Option<(tempfile::TempDir, PathBuf, SmallDisk)> {
+    if !is_root() {
+        eprintln!("skipped: {what} needs root");
+        return None;
+    }
+    let dir = tempfile::tempdir().expect("tmp");
+    let trials = dir.path().join("trials");
+    let disk = SmallDisk::mount(&trials, bytes).expect("tmpfs as root");
+    Some((dir, trials, disk))
+}
+
 struct SmallDisk {
     at: PathBuf,
 }
@@ -361,13 +377,9 @@ fn a_file_size_limit_mid_trial_holds_then_latches_recording_failed_and_loses_not
 
 #[test]
 fn a_full_disk_refuses_a_trial_up_front_with_the_figure() {
-    if !is_root() {
-        eprintln!("skipped: mounting a tmpfs needs root");
+    let Some((dir, trials, _disk)) = trials_on_a_small_disk(200 * 1024, "mounting a tmpfs") else {
         return;
-    }
-    let dir = tempfile::tempdir().expect("tmp");
-    let trials = dir.path().join("trials");
-    let _disk = SmallDisk::mount(&trials, 200 * 1024).expect("tmpfs as root");
+    };
     // The default minimum (64 MiB) is more than the disk.
     let (daemon, mut c) = e2e::start(dir.path(), &Setup::default());
     call(&mut c, "enable", json!({}));
@@ -389,13 +401,9 @@ fn a_full_disk_refuses_a_trial_up_front_with_the_figure() {
 
 #[test]
 fn a_read_only_recording_folder_refuses_trials_with_the_reason() {
-    if !is_root() {
-        eprintln!("skipped: a read-only mount needs root");
+    let Some((dir, trials, disk)) = trials_on_a_small_disk(4 << 20, "a read-only mount") else {
         return;
-    }
-    let dir = tempfile::tempdir().expect("tmp");
-    let trials = dir.path().join("trials");
-    let disk = SmallDisk::mount(&trials, 4 << 20).expect("tmpfs as root");
+    };
     disk.remount_read_only();
     let config = config_with(
         dir.path(),
