@@ -401,7 +401,7 @@ fn a_full_disk_refuses_a_trial_up_front_with_the_figure() {
 
 #[test]
 fn a_read_only_recording_folder_refuses_trials_with_the_reason() {
-    let Some((dir, trials, disk)) = trials_on_a_small_disk(4 << 20, "a read-only mount") else {
+    let Some((dir, _, disk)) = trials_on_a_small_disk(4 << 20, "a read-only mount") else {
         return;
     };
     disk.remount_read_only();
