@@ -410,12 +410,18 @@ impl BeatSlide {
         self.report_period(t_s);
     }
 
+    /// A fit's pulse amplitude in N (peak to peak of the learned waveform at the kernel's
+    /// peak; in the fit's own units before a waveform is known).
+    fn amplitude_n(&self, fit: &KernelFit) -> f64 {
+        fit.amplitude * self.pulse.map_or(1.0, |p| p.template_pp)
+    }
+
     /// Refuse a pulse far weaker than this artery's usual one (no usual one yet: anything).
     fn check_amplitude(&self, fit: &KernelFit) -> Result<(), Miss> {
         let Some(p) = self.pulse else {
             return Ok(());
         };
-        let amplitude_n = fit.amplitude * p.template_pp;
+        let amplitude_n = self.amplitude_n(fit);
         if amplitude_n.is_nan() || amplitude_n < FAINT_FRACTION * p.amplitude_n {
             return Err(Miss::Faint {
                 amplitude_n,
@@ -454,13 +460,12 @@ impl BeatSlide {
         fit: &KernelFit,
         seed: bool,
     ) -> LocatedPoint {
-        let pp = self.pulse.map_or(1.0, |p| p.template_pp);
         LocatedPoint {
             t_s,
             point,
             sensor,
             element: fit.element,
-            amplitude_n: fit.amplitude * pp,
+            amplitude_n: self.amplitude_n(fit),
             seed,
         }
     }
