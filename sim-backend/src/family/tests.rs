@@ -172,6 +172,33 @@ fn drawn_scenes_keep_the_family_limits() {
 }
 
 /// A drawn scene written out is an ordinary scene file that loads back to the same scene.
+/// The limit sweeps (docs/BENCHMARKS.md, "Limits") load, are named after their files, and
+/// draw scenes that hold the one value each fixes.
+#[test]
+fn every_limits_sweep_family_loads_and_draws() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/families/limits");
+    let mut count = 0;
+    for entry in std::fs::read_dir(&dir).expect("config/families/limits") {
+        let path = entry.expect("entry").path();
+        if path.extension().and_then(|e| e.to_str()) != Some("ron") {
+            continue;
+        }
+        let file = path.to_str().expect("utf-8");
+        let f = load(file, None).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            path.file_stem().and_then(|s| s.to_str()),
+            Some(f.family.name.as_str()),
+            "a family is named as its file"
+        );
+        let s = f.draw(1).unwrap_or_else(|e| panic!("{file}: {e}"));
+        if let Some(m) = f.family.instrument.as_ref().and_then(|i| i.mass_kg) {
+            assert_eq!(s.mass.map(|m| m.mass_kg), Some(m.0), "{file}");
+        }
+        count += 1;
+    }
+    assert!(count >= 30, "{count} sweep families");
+}
+
 #[test]
 fn a_drawn_scene_written_out_loads_back_identical() {
     let dir = std::env::temp_dir().join(format!("pulsetrack-family-{}", std::process::id()));
