@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use control::frames::SurfacePoint;
 use control::kinematics::ArmModel;
-use control::motion::MotionPlanner;
+use control::motion::{Arrival, MotionPlanner, Shortfall};
 use control::pd::PdController;
 use control::pd::gravity::{GravityModel, PhantomGravity};
 use control::tracker::{
@@ -66,6 +66,13 @@ enum Stop {
     Timeout,
     /// The controller or the kinematics refused.
     Fault(String),
+    /// The arm stopped short of a placement or a tracking target (judged from the
+    /// encoders): nothing is marked or fixed there.
+    ShortOfTarget {
+        what: String,
+        target: SurfacePoint,
+        shortfall: Shortfall,
+    },
 }
 
 /// Everything one trial drives.
@@ -320,17 +327,24 @@ impl Lockstep {
         Ok(())
     }
 
-    fn settled(&self) -> bool {
+    /// Where the current move stands, judged from the believed (encoder) position; no
+    /// motion at all counts as arrived.
+    fn arrival(&self) -> Arrival {
         if self.planner.target().is_none() {
-            return true;
+            return Arrival::Arrived;
         }
         self.planner
-            .settled(self.believed_surface(), self.believed_speed_m_s, self.now())
+            .arrival(self.believed_surface(), self.believed_speed_m_s, self.now())
     }
 
-    /// The surgeon moves the sensor to a placement and waits for it to settle, in the way
-    /// the scene says ([`Placing`]).
-    fn place(&mut self, at: SurfacePoint, placing: Placing) -> Result<(), Stop> {
+    fn settled(&self) -> bool {
+        self.arrival() == Arrival::Arrived
+    }
+
+    /// The surgeon moves the sensor to a placement and waits for it to arrive, in the way
+    /// the scene says ([`Placing`]). An arm that stops short ends the trial there: a mark
+    /// is made only where the arm really is.
+    fn place(&mut self, index: usize, at: SurfacePoint, placing: Placing) -> Result<(), Stop> {
         match placing {
             Placing::Robot => self
                 .move_to(at, PLACEMENT_SPEED_M_S)
@@ -339,9 +353,37 @@ impl Lockstep {
         }
         loop {
             self.next_frame()?;
-            if self.settled() {
-                return Ok(());
+            match self.arrival() {
+                Arrival::Arrived => return Ok(()),
+                Arrival::Moving => {}
+                Arrival::StoppedShort(shortfall) => {
+                    return Err(self.stopped_short(format!("placement {}", index + 1), shortfall));
+                }
             }
+        }
+    }
+
+    /// Come to rest where the arm is (not where it could not get) and say so.
+    fn stopped_short(&mut self, what: String, shortfall: Shortfall) -> Stop {
+        let target = self
+            .planner
+            .target()
+            .unwrap_or_else(|| self.believed_surface());
+        let here = self.believed;
+        if let Err(e) = self.planner.hold_point(here, self.now()) {
+            return Stop::Fault(e.to_string());
+        }
+        self.last_move_target = None;
+        self.log.push(format!(
+            "{:8.2} s  {what}: {shortfall} at ({:.2}, {:.2}) mm",
+            self.now(),
+            target.x_m * 1e3,
+            target.z_m * 1e3
+        ));
+        Stop::ShortOfTarget {
+            what,
+            target,
+            shortfall,
         }
     }
 
@@ -487,7 +529,7 @@ impl Lockstep {
         let mut outcome = Outcome::default();
         let seeded = (|| -> Result<bool, Stop> {
             for (i, placement) in scene.placements.iter().enumerate() {
-                self.place(*placement, scene.placed_by)?;
+                self.place(i, *placement, scene.placed_by)?;
                 self.recording_first = i == 0;
                 let found = self.mark()?;
                 self.recording_first = false;
@@ -538,6 +580,7 @@ impl Lockstep {
             completed: outcome.end_reason == EndReason::LengthReached.as_str(),
             end_reason: outcome.end_reason,
             detail: outcome.detail,
+            shortfall: outcome.shortfall,
             lateral_error_m: lateral,
             false_points,
             tracked_length_m,
@@ -563,7 +606,17 @@ impl Lockstep {
         outcome.tracking_from_s = Some(t0);
         outcome.beats_at_start = self.bench.beats_started_by(t0);
         loop {
-            let step = self.next_frame().and_then(|f| self.feed(&f));
+            let step = self.next_frame().and_then(|f| {
+                // A tracker's move that stops short ends the trial before the tracker could
+                // take the frame as a fix from a place the arm did not reach.
+                if self.last_move_target.is_some()
+                    && let Arrival::StoppedShort(shortfall) = self.arrival()
+                {
+                    self.tracker.stop();
+                    return Err(self.stopped_short("tracking target".into(), shortfall));
+                }
+                self.feed(&f)
+            });
             match step {
                 Ok(Some(TrackerEvent::Finished { reason, .. })) => {
                     outcome.end_reason = reason.as_str().to_string();
@@ -586,7 +639,11 @@ struct Outcome {
     detail: Option<String>,
     tracking_from_s: Option<f64>,
     beats_at_start: u64,
+    shortfall: Option<crate::trial::ShortfallReport>,
 }
+
+/// The end reason of a trial whose arm stopped short of a placement or a tracking target.
+pub const SHORT_OF_TARGET: &str = "short_of_target";
 
 impl Outcome {
     fn stopped(&mut self, stop: Stop) {
@@ -600,6 +657,25 @@ impl Outcome {
             Stop::Fault(m) => {
                 self.end_reason = "fault".into();
                 self.detail = Some(m);
+            }
+            Stop::ShortOfTarget {
+                what,
+                target,
+                shortfall,
+            } => {
+                self.end_reason = SHORT_OF_TARGET.into();
+                self.detail = Some(format!(
+                    "{what} at ({:.2}, {:.2}) mm not reached: {shortfall}; nothing was marked or fixed there",
+                    target.x_m * 1e3,
+                    target.z_m * 1e3
+                ));
+                self.shortfall = Some(crate::trial::ShortfallReport {
+                    what,
+                    target_x_m: target.x_m,
+                    target_z_m: target.z_m,
+                    shortfall_m: shortfall.distance_m,
+                    reason: shortfall.reason.as_str().into(),
+                });
             }
         }
     }

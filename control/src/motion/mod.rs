@@ -5,7 +5,9 @@
 //! (acceleration-limited) profile that starts and ends at rest: the seed's robot stops to
 //! sample. [`MotionPlanner::setpoint`] gives the position and velocity to command at a time
 //! (turned into joint setpoints by [`crate::kinematics::ArmModel::joint_setpoint`]);
-//! [`MotionPlanner::settled`] says when the tracker may sample again.
+//! [`MotionPlanner::arrival`] says whether the sensor has arrived (judged from the encoders,
+//! never assumed from the setpoint), is still on its way, or stopped short and by how much;
+//! [`MotionPlanner::settled`] (arrived) says when the tracker may sample again.
 //!
 //! Heights: the setpoint's `y` is `contact_height_m`, a few mm below the surface, so that
 //! the low-gain PD and the tissue act as two springs pressing the sensor in. Settling is
@@ -218,25 +220,119 @@ impl MotionPlanner {
         Some((m.from + m.direction * s.s_m, m.direction * s.speed_m_s))
     }
 
-    /// The move has arrived: its profile has finished and the believed sensor centre is
-    /// within `settle_tolerance_m` of the target (over the surface) and slower than
-    /// `settle_speed_m_s`; or `settle_timeout_s` has passed since the profile finished (a
-    /// low-gain PD against friction may never get within the tolerance). False with no
-    /// move or with any non-finite input.
-    pub fn settled(&self, believed: SurfacePoint, believed_speed_m_s: f64, t_s: f64) -> bool {
+    /// Where the current move stands, judged from the *believed* sensor centre (the encoders
+    /// through the kinematic model, never the setpoint) and its speed over the surface:
+    ///
+    /// - [`Arrival::Arrived`]: the profile has finished and the believed centre is within
+    ///   `settle_tolerance_m` of the target (over the surface, the boundary included) and
+    ///   slower than `settle_speed_m_s`;
+    /// - [`Arrival::StoppedShort`]: `settle_timeout_s` has passed since the profile finished
+    ///   and it has not arrived (a low-gain PD against friction or a heavy load), with the
+    ///   distance still to go and why;
+    /// - [`Arrival::Moving`] otherwise, also with no move and with any non-finite input
+    ///   (nothing it could vouch for).
+    ///
+    /// A pure function of its inputs: an arm that creeps in after the timeout is `Arrived`
+    /// from then on. No allocation; a few flops (it runs every servo cycle).
+    pub fn arrival(&self, believed: SurfacePoint, believed_speed_m_s: f64, t_s: f64) -> Arrival {
         let Some(m) = self.current else {
-            return false;
+            return Arrival::Moving;
         };
         if !(believed.is_finite() && believed_speed_m_s.is_finite() && t_s.is_finite()) {
-            return false;
+            return Arrival::Moving;
         }
         let finish = m.finish_s();
         if t_s < finish {
-            return false;
+            return Arrival::Moving;
         }
-        let arrived = believed.distance_to(&m.target) <= self.params.settle_tolerance_m
-            && believed_speed_m_s.abs() < self.params.settle_speed_m_s;
-        arrived || t_s - finish >= self.params.settle_timeout_s
+        let to_go_m = believed.distance_to(&m.target);
+        let close = to_go_m <= self.params.settle_tolerance_m;
+        let at_rest = believed_speed_m_s.abs() < self.params.settle_speed_m_s;
+        if close && at_rest {
+            return Arrival::Arrived;
+        }
+        if t_s - finish < self.params.settle_timeout_s {
+            return Arrival::Moving;
+        }
+        Arrival::StoppedShort(Shortfall {
+            distance_m: to_go_m,
+            reason: if at_rest {
+                ShortfallReason::Stalled
+            } else {
+                ShortfallReason::NotAtRest
+            },
+        })
+    }
+
+    /// The move has really arrived ([`Self::arrival`] is [`Arrival::Arrived`]): what a
+    /// tracker's `settled` means. False while moving, after a stop short of the target, with
+    /// no move, and with any non-finite input.
+    pub fn settled(&self, believed: SurfacePoint, believed_speed_m_s: f64, t_s: f64) -> bool {
+        self.arrival(believed, believed_speed_m_s, t_s) == Arrival::Arrived
+    }
+}
+
+/// Where a move stands (see [`MotionPlanner::arrival`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Arrival {
+    /// Under way, or still within the settling time after the profile ended (or nothing to
+    /// judge).
+    Moving,
+    /// The believed sensor centre is within the tolerance of the target and at rest.
+    Arrived,
+    /// The settling time is over and the arm is not there.
+    StoppedShort(Shortfall),
+}
+
+/// How far short of its target a move ended, and why.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shortfall {
+    /// Believed sensor centre to the target over the surface, m (more than the tolerance, or
+    /// within it but not at rest).
+    pub distance_m: f64,
+    pub reason: ShortfallReason,
+}
+
+/// Why a move did not arrive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShortfallReason {
+    /// At rest outside the tolerance: the drive cannot push further (joint or tissue
+    /// friction, an uncompensated load).
+    Stalled,
+    /// Still moving faster than the settling speed after the settling time (oscillating,
+    /// creeping, or pushed by something).
+    NotAtRest,
+}
+
+impl ShortfallReason {
+    /// snake_case, as JSON and end reasons spell it.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            ShortfallReason::Stalled => "stalled",
+            ShortfallReason::NotAtRest => "not_at_rest",
+        }
+    }
+
+    /// In words for people.
+    pub fn describe(&self) -> &'static str {
+        match self {
+            ShortfallReason::Stalled => {
+                "came to rest short of it (friction or a load the drive cannot overcome)"
+            }
+            ShortfallReason::NotAtRest => "was still moving when the settling time ran out",
+        }
+    }
+}
+
+impl std::fmt::Display for Shortfall {
+    /// For people: mm, with the reason.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the arm stopped {:.2} mm short of its target: it {}",
+            self.distance_m * 1e3,
+            self.reason.describe()
+        )
     }
 }
 

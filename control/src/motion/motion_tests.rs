@@ -180,13 +180,125 @@ fn settling_needs_the_profile_done_the_sensor_close_and_slow() {
         end + 0.5 * d.settle_timeout_s
     ));
     assert!(!m.settled(far, 0.0, end + 0.5 * d.settle_timeout_s));
-    // ... until the timeout after the profile's end.
-    assert!(m.settled(far, 0.0, end + d.settle_timeout_s));
-    assert!(m.settled(far, 1.0, end + 2.0 * d.settle_timeout_s));
-    // Garbage in: not settled.
+    // The timeout after the profile's end is not arrival: far and at rest is a stall, with
+    // the distance still to go; close but moving is not at rest.
+    assert!(!m.settled(far, 0.0, end + d.settle_timeout_s));
+    assert!(!m.settled(far, 1.0, end + 2.0 * d.settle_timeout_s));
+    match m.arrival(far, 0.0, end + d.settle_timeout_s) {
+        Arrival::StoppedShort(s) => {
+            assert_eq!(s.reason, ShortfallReason::Stalled);
+            assert!((s.distance_m - 1.1 * d.settle_tolerance_m).abs() < 1e-12, "{s:?}");
+            let text = s.to_string();
+            assert!(text.contains("1.10 mm short"), "{text}");
+        }
+        other => panic!("expected a stop short, got {other:?}"),
+    }
+    assert!(matches!(
+        m.arrival(near, 1.5 * d.settle_speed_m_s, end + d.settle_timeout_s),
+        Arrival::StoppedShort(Shortfall {
+            reason: ShortfallReason::NotAtRest,
+            ..
+        })
+    ));
+    // Just before the timeout it is still on its way.
+    assert_eq!(
+        m.arrival(far, 0.0, end + 0.999 * d.settle_timeout_s),
+        Arrival::Moving
+    );
+    // Creeping in after the timeout is arrival from then on.
+    assert_eq!(
+        m.arrival(near, 0.0, end + 3.0 * d.settle_timeout_s),
+        Arrival::Arrived
+    );
+    // Garbage in: not settled, and nothing vouched for.
     assert!(!m.settled(SurfacePoint::new(f64::NAN, 0.0), 0.0, end + 10.0));
     assert!(!m.settled(target, f64::NAN, end + 10.0));
     assert!(!m.settled(target, 0.0, f64::INFINITY));
+    assert!(!m.settled(target, f64::INFINITY, end + 10.0));
+    for (p, v, t) in [
+        (SurfacePoint::new(f64::NAN, 0.0), 0.0, end + 10.0),
+        (SurfacePoint::new(0.05, f64::INFINITY), 0.0, end + 10.0),
+        (target, f64::NAN, end + 10.0),
+        (target, 0.0, f64::NAN),
+        (target, 0.0, f64::NEG_INFINITY),
+    ] {
+        assert_eq!(m.arrival(p, v, t), Arrival::Moving, "{p:?} {v} {t}");
+    }
+}
+
+#[test]
+fn arrival_at_exactly_the_tolerance_counts_and_just_beyond_does_not() {
+    let d = MotionParams::default();
+    let mut m = planner();
+    let hold = SurfacePoint::new(0.0, 0.0);
+    m.hold(hold, 0.0).unwrap();
+    let tol = d.settle_tolerance_m;
+    // Exactly representable distances along each axis.
+    for at in [SurfacePoint::new(tol, 0.0), SurfacePoint::new(0.0, -tol)] {
+        assert_eq!(at.distance_to(&hold), tol);
+        assert_eq!(m.arrival(at, 0.0, 0.0), Arrival::Arrived);
+        assert!(m.settled(at, 0.0, 0.0));
+    }
+    let beyond = SurfacePoint::new(tol.next_up(), 0.0);
+    assert!(!m.settled(beyond, 0.0, d.settle_timeout_s));
+    assert!(matches!(
+        m.arrival(beyond, 0.0, d.settle_timeout_s),
+        Arrival::StoppedShort(Shortfall { reason: ShortfallReason::Stalled, distance_m }) if distance_m > tol
+    ));
+    // The speed bound is strict: exactly the settling speed is not at rest.
+    let on = SurfacePoint::new(0.0, 0.0);
+    assert_eq!(m.arrival(on, d.settle_speed_m_s, 0.0), Arrival::Moving);
+    assert!(matches!(
+        m.arrival(on, d.settle_speed_m_s, d.settle_timeout_s),
+        Arrival::StoppedShort(Shortfall {
+            reason: ShortfallReason::NotAtRest,
+            distance_m: 0.0
+        })
+    ));
+    // A negative speed is a speed.
+    assert_eq!(m.arrival(on, -0.5 * d.settle_speed_m_s, 0.0), Arrival::Arrived);
+}
+
+#[test]
+fn timeout_without_arrival_is_a_stop_short_never_a_settle() {
+    // The heavy-instrument case of issue 13: 0.4 mm of a 10 mm move, then nothing.
+    let d = MotionParams::default();
+    let mut m = planner();
+    let from = SurfacePoint::new(0.0, 0.0);
+    let target = SurfacePoint::new(0.01, 0.0);
+    m.start(from, target, 0.01, 2.0).unwrap();
+    let end = m.finish_time_s().unwrap();
+    let stuck = SurfacePoint::new(0.0004, 0.0);
+    let mut t = 2.0;
+    let mut stopped_at = None;
+    while t < end + 5.0 * d.settle_timeout_s {
+        assert!(!m.settled(stuck, 0.0, t), "settled at {t} s");
+        if let (None, Arrival::StoppedShort(s)) = (stopped_at, m.arrival(stuck, 0.0, t)) {
+            stopped_at = Some((t, s));
+        }
+        t += 1e-3;
+    }
+    let (t_stop, s) = stopped_at.expect("judged stopped short");
+    assert!(t_stop >= end + d.settle_timeout_s && t_stop < end + d.settle_timeout_s + 2e-3);
+    assert!((s.distance_m - 0.0096).abs() < 1e-12, "{s:?}");
+    assert_eq!(s.reason, ShortfallReason::Stalled);
+    assert!(s.to_string().contains("9.60 mm"), "{s}");
+    // No move at all: nothing to judge.
+    assert_eq!(planner().arrival(stuck, 0.0, 100.0), Arrival::Moving);
+    // A zero settling time judges at the profile's end.
+    let mut quick = MotionPlanner::new(MotionParams {
+        settle_timeout_s: 0.0,
+        ..d
+    })
+    .unwrap();
+    quick.start(from, target, 0.01, 0.0).unwrap();
+    let end = quick.finish_time_s().unwrap();
+    assert_eq!(quick.arrival(stuck, 0.0, end.next_down()), Arrival::Moving);
+    assert!(matches!(
+        quick.arrival(stuck, 0.0, end),
+        Arrival::StoppedShort(_)
+    ));
+    assert_eq!(quick.arrival(target, 0.0, end), Arrival::Arrived);
 }
 
 #[test]

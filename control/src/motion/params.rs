@@ -18,8 +18,9 @@ pub struct MotionParams {
     pub settle_tolerance_m: f64,
     /// ... and moving slower than this, m/s.
     pub settle_speed_m_s: f64,
-    /// A move whose setpoint has finished counts as settled after this long even if the
-    /// tolerance is not met (low-gain PD against friction may never get within it), s.
+    /// A move whose setpoint has finished and that has not arrived this long after is judged
+    /// to have stopped short of its target (low-gain PD against friction may never get
+    /// within the tolerance); it is never counted as arrived, s.
     pub settle_timeout_s: f64,
 }
 

@@ -5,7 +5,7 @@
 use config::Config;
 use control::frames::SurfacePoint;
 use control::kinematics::{ArmModel, KinematicsError};
-use control::motion::MotionPlanner;
+use control::motion::{Arrival, MotionPlanner};
 use control::pd::{GravityModel, PdController, PdFault, PhantomGravity};
 use control::types::{JointState, Joints};
 use nalgebra::{Point3, Vector3};
@@ -207,11 +207,17 @@ impl Servo for CoreServo {
         let speed = self
             .believed_speed(state)
             .map_err(|e| kinematic_fault(&e, now_s))?;
+        // Judged from the encoders through the kinematics, never from the setpoint.
+        let arrival = self.planner.arrival(believed, speed, now_s);
         Ok(ServoStep {
             torques,
             setpoint: SurfacePoint::new(p.x, p.z),
             setpoint_rad: js.position_rad,
-            settled: self.planner.settled(believed, speed, now_s),
+            settled: arrival == Arrival::Arrived,
+            shortfall: match arrival {
+                Arrival::StoppedShort(s) => Some(s),
+                Arrival::Moving | Arrival::Arrived => None,
+            },
         })
     }
 }
