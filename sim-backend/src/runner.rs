@@ -218,6 +218,18 @@ impl Lockstep {
             {
                 return Ok(Some(sp));
             }
+            let trim = self.planner.trim();
+            if trim.x_m != 0.0 || trim.z_m != 0.0 {
+                // Being trimmed onto the target: millimetres from a point the guard passed
+                // (the move's target), so the inverse kinematics alone, as during moves.
+                let q = self.model.joints_for_sensor(&p)?;
+                let sp = JointSetpoint {
+                    position_rad: q,
+                    velocity_rad_s: [0.0; 3],
+                };
+                self.rest_setpoint = Some((p, sp));
+                return Ok(Some(sp));
+            }
             let sp = self.model.joint_setpoint(&p, &v)?;
             self.rest_setpoint = Some((p, sp));
             return Ok(Some(sp));
@@ -285,6 +297,10 @@ impl Lockstep {
                 self.update_belief()
                     .and_then(|()| self.update_believed_speed())
                     .map_err(|e| Stop::Fault(e.to_string()))?;
+                if !self.bench.is_ideal() {
+                    let (b, t) = (self.believed_surface(), self.now());
+                    self.planner.trim_toward_target(b, t);
+                }
                 if self.recording_first {
                     self.first_acquisition.push(f);
                 }
@@ -310,6 +326,22 @@ impl Lockstep {
             .start_from_point(from, target, speed_m_s, t)
             .map_err(|e| SimError::Control(e.to_string()))?;
         self.last_move_target = Some(target);
+        Ok(())
+    }
+
+    /// Hold where the robot believes the sensor is over the surface, at the setpoint's
+    /// height (the contact load stays as it was).
+    fn hold_at_believed(&mut self) -> Result<(), SimError> {
+        let t = self.now();
+        let y = self
+            .planner
+            .setpoint(t)
+            .map_or(self.believed.y, |(p, _)| p.y);
+        let here = Point3::new(self.believed.x, y, self.believed.z);
+        self.planner
+            .hold_point(here, t)
+            .map_err(|e| SimError::Control(e.to_string()))?;
+        self.last_move_target = None;
         Ok(())
     }
 
@@ -369,8 +401,7 @@ impl Lockstep {
             .planner
             .target()
             .unwrap_or_else(|| self.believed_surface());
-        let here = self.believed;
-        if let Err(e) = self.planner.hold_point(here, self.now()) {
+        if let Err(e) = self.hold_at_believed() {
             return Stop::Fault(e.to_string());
         }
         self.last_move_target = None;
@@ -414,7 +445,11 @@ impl Lockstep {
                 .finish_time_s()
                 .is_some_and(|end| self.now() < end);
             if to_go <= 0.0 || !moving {
-                return self.hold_here().map_err(|e| Stop::Fault(e.to_string()));
+                // The surgeon stops the arm where it is, not where its setpoint has run
+                // ahead to.
+                return self
+                    .hold_at_believed()
+                    .map_err(|e| Stop::Fault(e.to_string()));
             }
         }
     }

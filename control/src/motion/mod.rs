@@ -44,6 +44,23 @@ struct Move {
     target: SurfacePoint,
 }
 
+/// The setpoint's offset after a move's profile (see [`MotionPlanner::trim_toward_target`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Trim {
+    x_m: f64,
+    z_m: f64,
+    /// When it was last updated, s.
+    t_s: Option<f64>,
+}
+
+impl Trim {
+    const ZERO: Trim = Trim {
+        x_m: 0.0,
+        z_m: 0.0,
+        t_s: None,
+    };
+}
+
 impl Move {
     fn finish_s(&self) -> f64 {
         self.start_s + self.profile.duration_s()
@@ -54,6 +71,7 @@ impl Move {
 pub struct MotionPlanner {
     params: MotionParams,
     current: Option<Move>,
+    trim: Trim,
 }
 
 fn finite_point(what: &'static str, p: &Point3<f64>) -> Result<(), MotionError> {
@@ -96,9 +114,16 @@ impl MotionPlanner {
         if !params.contact_height_m.is_finite() {
             return bad("contact_height_m must be finite");
         }
+        if !(params.trim_rate_per_s.is_finite() && params.trim_rate_per_s >= 0.0) {
+            return bad("trim_rate_per_s must not be negative");
+        }
+        if !(params.trim_max_m.is_finite() && params.trim_max_m >= 0.0) {
+            return bad("trim_max_m must not be negative");
+        }
         Ok(Self {
             params,
             current: None,
+            trim: Trim::ZERO,
         })
     }
 
@@ -158,6 +183,8 @@ impl MotionPlanner {
             Vector3::zeros()
         };
         let speed = speed_m_s.min(self.params.max_speed_m_s);
+        // `from` is where the setpoint is, trim included: the new profile takes it over.
+        self.trim = Trim::ZERO;
         self.current = Some(Move {
             from,
             direction,
@@ -178,6 +205,7 @@ impl MotionPlanner {
     pub fn hold_point(&mut self, at: Point3<f64>, t_s: f64) -> Result<(), MotionError> {
         finite_time(t_s)?;
         finite_point("hold point", &at)?;
+        self.trim = Trim::ZERO;
         self.current = Some(Move {
             from: at,
             direction: Vector3::zeros(),
@@ -191,6 +219,44 @@ impl MotionPlanner {
     /// Forget the current move: no setpoint until the next start or hold.
     pub fn clear(&mut self) {
         self.current = None;
+        self.trim = Trim::ZERO;
+    }
+
+    /// One step of the outer loop that makes a finished move arrive: while the believed
+    /// sensor centre (encoders through the kinematics) is farther than `settle_tolerance_m`
+    /// from the target, the setpoint is moved toward where the arm must go at
+    /// `trim_rate_per_s` times the error, up to `trim_max_m`; within the tolerance it stays.
+    /// Call it whenever the belief is refreshed (every servo cycle, or every frame); the
+    /// time since the last call (at most 0.05 s counted) is the step. Does nothing during
+    /// the profile, with no move, or with non-finite input. No allocation.
+    pub fn trim_toward_target(&mut self, believed: SurfacePoint, t_s: f64) {
+        let Some(m) = self.current else {
+            return;
+        };
+        if !(believed.is_finite() && t_s.is_finite()) || t_s < m.finish_s() {
+            return;
+        }
+        let dt = self.trim.t_s.map_or(0.0, |last| (t_s - last).clamp(0.0, 0.05));
+        self.trim.t_s = Some(t_s);
+        let (ex, ez) = (m.target.x_m - believed.x_m, m.target.z_m - believed.z_m);
+        if ex.hypot(ez) <= self.params.settle_tolerance_m {
+            return;
+        }
+        let k = self.params.trim_rate_per_s * dt;
+        let (x, z) = (self.trim.x_m + k * ex, self.trim.z_m + k * ez);
+        let n = x.hypot(z);
+        let scale = if n > self.params.trim_max_m {
+            self.params.trim_max_m / n
+        } else {
+            1.0
+        };
+        self.trim.x_m = x * scale;
+        self.trim.z_m = z * scale;
+    }
+
+    /// The setpoint's current trim over the surface, m (zero during a profile).
+    pub fn trim(&self) -> SurfacePoint {
+        SurfacePoint::new(self.trim.x_m, self.trim.z_m)
     }
 
     /// Where the current move or hold is going, over the surface.
@@ -217,7 +283,8 @@ impl MotionPlanner {
             return None;
         }
         let s = m.profile.sample(t_s - m.start_s);
-        Some((m.from + m.direction * s.s_m, m.direction * s.speed_m_s))
+        let trim = Vector3::new(self.trim.x_m, 0.0, self.trim.z_m);
+        Some((m.from + m.direction * s.s_m + trim, m.direction * s.speed_m_s))
     }
 
     /// Where the current move stands, judged from the *believed* sensor centre (the encoders

@@ -22,6 +22,14 @@ pub struct MotionParams {
     /// to have stopped short of its target (low-gain PD against friction may never get
     /// within the tolerance); it is never counted as arrived, s.
     pub settle_timeout_s: f64,
+    /// After a move's profile has finished, the setpoint is trimmed toward where the arm has
+    /// to go, at this rate times the believed error (1/s), until the believed sensor centre
+    /// is within `settle_tolerance_m`: the low-gain PD's steady error against friction and
+    /// load is taken out by the outer loop, not by stiffer gains. 0 turns it off.
+    pub trim_rate_per_s: f64,
+    /// Largest trim, m (keeps setpoint minus believed well inside the safety layer's
+    /// `max_sensor_error_m`).
+    pub trim_max_m: f64,
 }
 
 impl Default for MotionParams {
@@ -36,6 +44,10 @@ impl Default for MotionParams {
             settle_tolerance_m: 0.001,
             settle_speed_m_s: 0.002,
             settle_timeout_s: 1.0,
+            // A stall of 3 mm (the seed's rig on a 10 mm placement) builds the 3 mm the PD
+            // needs to break away in about 0.3 s, well inside the settling time.
+            trim_rate_per_s: 4.0,
+            trim_max_m: 0.006,
         }
     }
 }

@@ -187,6 +187,12 @@ impl Servo for CoreServo {
     }
 
     fn step(&mut self, now_s: f64, state: &JointState, dt_s: f64) -> Result<ServoStep, Fault> {
+        let believed = self
+            .arm
+            .surface_point(&state.position_rad)
+            .map_err(|e| kinematic_fault(&e, now_s))?;
+        // The outer loop that takes the PD's steady error out once a move's profile is done.
+        self.planner.trim_toward_target(believed, now_s);
         let (p, v) = self
             .planner
             .setpoint(now_s)
@@ -200,10 +206,6 @@ impl Servo for CoreServo {
             .pd
             .step(&js, state, &g, dt_s)
             .map_err(|e| pd_fault(&e, now_s))?;
-        let believed = self
-            .arm
-            .surface_point(&state.position_rad)
-            .map_err(|e| kinematic_fault(&e, now_s))?;
         let speed = self
             .believed_speed(state)
             .map_err(|e| kinematic_fault(&e, now_s))?;
