@@ -299,7 +299,8 @@ impl Lockstep {
                     .map_err(|e| Stop::Fault(e.to_string()))?;
                 if !self.bench.is_ideal() {
                     let (b, t) = (self.believed_surface(), self.now());
-                    self.planner.trim_toward_target(b, t);
+                    let v = self.believed_speed_m_s;
+                    self.planner.trim_toward_target(b, v, t);
                 }
                 if self.recording_first {
                     self.first_acquisition.push(f);

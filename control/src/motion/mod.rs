@@ -229,15 +229,29 @@ impl MotionPlanner {
     /// Call it whenever the belief is refreshed (every servo cycle, or every frame); the
     /// time since the last call (at most 0.05 s counted) is the step. Does nothing during
     /// the profile, with no move, or with non-finite input. No allocation.
-    pub fn trim_toward_target(&mut self, believed: SurfacePoint, t_s: f64) {
+    pub fn trim_toward_target(
+        &mut self,
+        believed: SurfacePoint,
+        believed_speed_m_s: f64,
+        t_s: f64,
+    ) {
         let Some(m) = self.current else {
             return;
         };
-        if !(believed.is_finite() && t_s.is_finite()) || t_s < m.finish_s() {
+        if !(believed.is_finite() && believed_speed_m_s.is_finite() && t_s.is_finite())
+            || t_s < m.finish_s()
+        {
             return;
         }
-        let dt = self.trim.t_s.map_or(0.0, |last| (t_s - last).clamp(0.0, 0.05));
+        let dt = self
+            .trim
+            .t_s
+            .map_or(0.0, |last| (t_s - last).clamp(0.0, 0.05));
         self.trim.t_s = Some(t_s);
+        // Only a stalled arm is trimmed: one still coasting in gets there by itself.
+        if believed_speed_m_s.abs() >= self.params.settle_speed_m_s {
+            return;
+        }
         let (ex, ez) = (m.target.x_m - believed.x_m, m.target.z_m - believed.z_m);
         if ex.hypot(ez) <= self.params.settle_tolerance_m {
             return;
@@ -284,7 +298,10 @@ impl MotionPlanner {
         }
         let s = m.profile.sample(t_s - m.start_s);
         let trim = Vector3::new(self.trim.x_m, 0.0, self.trim.z_m);
-        Some((m.from + m.direction * s.s_m + trim, m.direction * s.speed_m_s))
+        Some((
+            m.from + m.direction * s.s_m + trim,
+            m.direction * s.speed_m_s,
+        ))
     }
 
     /// Where the current move stands, judged from the *believed* sensor centre (the encoders

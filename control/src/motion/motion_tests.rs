@@ -187,7 +187,10 @@ fn settling_needs_the_profile_done_the_sensor_close_and_slow() {
     match m.arrival(far, 0.0, end + d.settle_timeout_s) {
         Arrival::StoppedShort(s) => {
             assert_eq!(s.reason, ShortfallReason::Stalled);
-            assert!((s.distance_m - 1.1 * d.settle_tolerance_m).abs() < 1e-12, "{s:?}");
+            assert!(
+                (s.distance_m - 1.1 * d.settle_tolerance_m).abs() < 1e-12,
+                "{s:?}"
+            );
             let text = s.to_string();
             assert!(text.contains("1.10 mm short"), "{text}");
         }
@@ -256,7 +259,10 @@ fn arrival_at_exactly_the_tolerance_counts_and_just_beyond_does_not() {
         })
     ));
     // A negative speed is a speed.
-    assert_eq!(m.arrival(on, -0.5 * d.settle_speed_m_s, 0.0), Arrival::Arrived);
+    assert_eq!(
+        m.arrival(on, -0.5 * d.settle_speed_m_s, 0.0),
+        Arrival::Arrived
+    );
 }
 
 #[test]
@@ -353,4 +359,45 @@ proptest! {
         let end = p.sample(total);
         prop_assert!(end.s_m == d && end.speed_m_s == 0.0);
     }
+}
+
+#[test]
+fn trim_pulls_a_stalled_arm_onto_its_target_and_stops_within_tolerance() {
+    let d = MotionParams::default();
+    let mut m = planner();
+    let target = SurfacePoint::new(0.01, 0.0);
+    m.start(SurfacePoint::new(0.0, 0.0), target, 0.01, 0.0)
+        .unwrap();
+    let end = m.finish_time_s().unwrap();
+    let stalled = SurfacePoint::new(0.007, 0.0);
+    // Nothing during the profile, nor while the arm still moves.
+    m.trim_toward_target(stalled, 0.0, end - 0.1);
+    m.trim_toward_target(stalled, 1.0, end + 0.1);
+    assert_eq!(m.trim(), SurfacePoint::new(0.0, 0.0));
+    let mut t = end + 0.1;
+    while t < end + 0.5 {
+        t += 1e-3;
+        m.trim_toward_target(stalled, 0.0, t);
+    }
+    let trim = m.trim();
+    // 4/s on 3 mm for 0.4 s: about 4.8 mm, toward +x, capped at trim_max_m.
+    assert!(trim.x_m > 0.004 && trim.x_m <= d.trim_max_m, "{trim:?}");
+    assert_eq!(trim.z_m, 0.0);
+    let (sp, _) = m.setpoint(t).unwrap();
+    assert!((sp.x - (0.01 + trim.x_m)).abs() < 1e-12);
+    // Within the tolerance it stays; garbage changes nothing.
+    m.trim_toward_target(SurfacePoint::new(0.0095, 0.0), 0.0, t + 0.01);
+    m.trim_toward_target(SurfacePoint::new(f64::NAN, 0.0), 0.0, t + 0.02);
+    m.trim_toward_target(stalled, f64::NAN, t + 0.03);
+    assert_eq!(m.trim(), trim);
+    for _ in 0..10_000 {
+        t += 1e-3;
+        m.trim_toward_target(SurfacePoint::new(-0.05, 0.0), 0.0, t);
+    }
+    assert!((m.trim().x_m - d.trim_max_m).abs() < 1e-15, "capped");
+    // A new move starts from the trimmed setpoint without a jump, and drops the trim.
+    let before = m.setpoint(t).unwrap().0;
+    m.start_from_point(before, target, 0.01, t).unwrap();
+    assert_eq!(m.setpoint(t).unwrap().0, before);
+    assert_eq!(m.trim(), SurfacePoint::new(0.0, 0.0));
 }

@@ -191,8 +191,11 @@ impl Servo for CoreServo {
             .arm
             .surface_point(&state.position_rad)
             .map_err(|e| kinematic_fault(&e, now_s))?;
+        let speed = self
+            .believed_speed(state)
+            .map_err(|e| kinematic_fault(&e, now_s))?;
         // The outer loop that takes the PD's steady error out once a move's profile is done.
-        self.planner.trim_toward_target(believed, now_s);
+        self.planner.trim_toward_target(believed, speed, now_s);
         let (p, v) = self
             .planner
             .setpoint(now_s)
@@ -206,9 +209,6 @@ impl Servo for CoreServo {
             .pd
             .step(&js, state, &g, dt_s)
             .map_err(|e| pd_fault(&e, now_s))?;
-        let speed = self
-            .believed_speed(state)
-            .map_err(|e| kinematic_fault(&e, now_s))?;
         // Judged from the encoders through the kinematics, never from the setpoint.
         let arrival = self.planner.arrival(believed, speed, now_s);
         Ok(ServoStep {

@@ -100,7 +100,11 @@ impl Supervisor {
         let hold = self.seq();
         self.motion_seq = hold;
         self.tracker_target = None;
-        self.send(ControlCommand::Hold { seq: hold }, Purpose::TrackerHold, None);
+        self.send(
+            ControlCommand::Hold { seq: hold },
+            Purpose::TrackerHold,
+            None,
+        );
         // Remembered under the hold's number: `mark` stays refused while the arm rests here.
         self.stopped_short = Some((hold, s));
         if tracking {

@@ -190,9 +190,7 @@ impl Servo for FakeServo {
         }
         let to_go = here.distance_to(&self.target);
         let settled = done && to_go < 5e-4;
-        let timed_out = self
-            .finished_s
-            .is_some_and(|t| now - t >= SETTLE_TIMEOUT_S);
+        let timed_out = self.finished_s.is_some_and(|t| now - t >= SETTLE_TIMEOUT_S);
         Ok(ServoStep {
             torques,
             setpoint: next,
