@@ -297,11 +297,11 @@ impl Lockstep {
                 self.update_belief()
                     .and_then(|()| self.update_believed_speed())
                     .map_err(|e| Stop::Fault(e.to_string()))?;
-                if !self.bench.is_ideal() {
-                    let (b, t) = (self.believed_surface(), self.now());
-                    let v = self.believed_speed_m_s;
-                    self.planner.trim_toward_target(b, v, t);
-                }
+                // Judge the move (and trim a stalled arm) once per frame: the verdict the
+                // frame is fed with.
+                let (b, t) = (self.believed_surface(), self.now());
+                let v = self.believed_speed_m_s;
+                self.planner.observe(b, v, t);
                 if self.recording_first {
                     self.first_acquisition.push(f);
                 }
@@ -360,14 +360,13 @@ impl Lockstep {
         Ok(())
     }
 
-    /// Where the current move stands, judged from the believed (encoder) position; no
-    /// motion at all counts as arrived.
+    /// Where the current move stands: the planner's verdict from the believed (encoder)
+    /// position at the last frame, kept once decided; no motion at all counts as arrived.
     fn arrival(&self) -> Arrival {
         if self.planner.target().is_none() {
             return Arrival::Arrived;
         }
-        self.planner
-            .arrival(self.believed_surface(), self.believed_speed_m_s, self.now())
+        self.planner.verdict()
     }
 
     fn settled(&self) -> bool {

@@ -8,6 +8,11 @@
 //! [`MotionPlanner::arrival`] says whether the sensor has arrived (judged from the encoders,
 //! never assumed from the setpoint), is still on its way, or stopped short and by how much;
 //! [`MotionPlanner::settled`] (arrived) says when the tracker may sample again.
+//! [`MotionPlanner::observe`] is what the loops call: it trims a stalled arm and *latches*
+//! the first verdict of a move (arrived or stopped short), so that every move ends, once, at
+//! most `settle_timeout_s` after its profile. An instantaneous judgement alone flickers at
+//! rest (encoder speed spikes with each heartbeat) and a tracker waiting for an unbroken
+//! stretch of arrival would wait for ever.
 //!
 //! Heights: the setpoint's `y` is `contact_height_m`, a few mm below the surface, so that
 //! the low-gain PD and the tissue act as two springs pressing the sensor in. Settling is
@@ -72,6 +77,9 @@ pub struct MotionPlanner {
     params: MotionParams,
     current: Option<Move>,
     trim: Trim,
+    /// The current move's verdict once it is decided: `Arrived` or `StoppedShort`, kept
+    /// until the next start, hold or clear.
+    verdict: Option<Arrival>,
 }
 
 fn finite_point(what: &'static str, p: &Point3<f64>) -> Result<(), MotionError> {
@@ -124,6 +132,7 @@ impl MotionPlanner {
             params,
             current: None,
             trim: Trim::ZERO,
+            verdict: None,
         })
     }
 
@@ -185,6 +194,7 @@ impl MotionPlanner {
         let speed = speed_m_s.min(self.params.max_speed_m_s);
         // `from` is where the setpoint is, trim included: the new profile takes it over.
         self.trim = Trim::ZERO;
+        self.verdict = None;
         self.current = Some(Move {
             from,
             direction,
@@ -206,6 +216,7 @@ impl MotionPlanner {
         finite_time(t_s)?;
         finite_point("hold point", &at)?;
         self.trim = Trim::ZERO;
+        self.verdict = None;
         self.current = Some(Move {
             from: at,
             direction: Vector3::zeros(),
@@ -220,6 +231,38 @@ impl MotionPlanner {
     pub fn clear(&mut self) {
         self.current = None;
         self.trim = Trim::ZERO;
+        self.verdict = None;
+    }
+
+    /// What the loops call whenever the belief is refreshed (every servo cycle, or every
+    /// frame): judges the move ([`Self::arrival`]) and, while it is undecided, trims a
+    /// stalled arm ([`Self::trim_toward_target`]). The first `Arrived` or `StoppedShort` is
+    /// the move's verdict and is returned from then on, whatever the arm does, until the
+    /// next start, hold or clear: a move is decided at the latest `settle_timeout_s` after
+    /// its profile, and once decided the trim stops moving the setpoint. Non-finite input
+    /// is no observation (`Moving`, or the verdict already reached). No allocation.
+    pub fn observe(
+        &mut self,
+        believed: SurfacePoint,
+        believed_speed_m_s: f64,
+        t_s: f64,
+    ) -> Arrival {
+        if let Some(v) = self.verdict {
+            return v;
+        }
+        let a = self.arrival(believed, believed_speed_m_s, t_s);
+        if a == Arrival::Moving {
+            self.trim_toward_target(believed, believed_speed_m_s, t_s);
+            return a;
+        }
+        self.verdict = Some(a);
+        a
+    }
+
+    /// The current move's verdict as [`Self::observe`] last left it: `Moving` until it is
+    /// decided, and with no move.
+    pub fn verdict(&self) -> Arrival {
+        self.verdict.unwrap_or(Arrival::Moving)
     }
 
     /// One step of the outer loop that makes a finished move arrive: while the believed
@@ -316,8 +359,10 @@ impl MotionPlanner {
     /// - [`Arrival::Moving`] otherwise, also with no move and with any non-finite input
     ///   (nothing it could vouch for).
     ///
-    /// A pure function of its inputs: an arm that creeps in after the timeout is `Arrived`
-    /// from then on. No allocation; a few flops (it runs every servo cycle).
+    /// A pure function of its inputs, the instantaneous judgement: at rest it can flicker
+    /// between `Arrived` and `StoppedShort` as the measured speed crosses the threshold; the
+    /// loops use [`Self::observe`], which keeps the first verdict. No allocation; a few
+    /// flops (it runs every servo cycle).
     pub fn arrival(&self, believed: SurfacePoint, believed_speed_m_s: f64, t_s: f64) -> Arrival {
         let Some(m) = self.current else {
             return Arrival::Moving;

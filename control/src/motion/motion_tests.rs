@@ -401,3 +401,106 @@ fn trim_pulls_a_stalled_arm_onto_its_target_and_stops_within_tolerance() {
     assert_eq!(m.setpoint(t).unwrap().0, before);
     assert_eq!(m.trim(), SurfacePoint::new(0.0, 0.0));
 }
+
+/// The hang the lead found (family smooth-random, seed 1008): an arm at rest within the
+/// tolerance whose measured speed spikes above the settling speed with every heartbeat.
+/// Judged afresh every frame, the move flickered between arrived and stopped short, and a
+/// tracker that needs an unbroken stretch of arrival to mark never marked. Observed, the
+/// first verdict stands.
+#[test]
+fn a_moves_first_verdict_stands_through_speed_spikes_at_rest() {
+    let d = MotionParams::default();
+    let mut m = planner();
+    let target = SurfacePoint::new(0.01, 0.0);
+    m.start(SurfacePoint::new(0.0, 0.0), target, 0.01, 0.0)
+        .unwrap();
+    let end = m.finish_time_s().unwrap();
+    let near = SurfacePoint::new(0.0092, 0.0);
+    // Frames at 100 Hz; a 30 mm/s spike on one frame in fifty, the rest at rest.
+    let speed = |i: u32| if i % 50 == 0 { 0.03 } else { 0.0 };
+    let mut first = None;
+    for i in 1..2000 {
+        let t = end + f64::from(i) * 0.01;
+        let v = m.observe(near, speed(i), t);
+        if let Some(f) = first {
+            assert_eq!(v, f, "the verdict changed at {t} s");
+        } else if v != Arrival::Moving {
+            first = Some(v);
+        }
+        assert_eq!(m.verdict(), v);
+    }
+    assert_eq!(first, Some(Arrival::Arrived));
+    // The instantaneous judgement alone is what flickered.
+    let spike_t = end + d.settle_timeout_s + 0.5;
+    assert!(matches!(
+        m.arrival(near, 0.03, spike_t),
+        Arrival::StoppedShort(_)
+    ));
+    // A new move is judged afresh.
+    m.start(target, SurfacePoint::new(0.02, 0.0), 0.01, 30.0)
+        .unwrap();
+    assert_eq!(m.verdict(), Arrival::Moving);
+    m.hold(target, 40.0).unwrap();
+    assert_eq!(m.verdict(), Arrival::Moving);
+    assert_eq!(m.observe(target, 0.0, 40.0), Arrival::Arrived);
+    m.clear();
+    assert_eq!(m.verdict(), Arrival::Moving);
+}
+
+#[test]
+fn a_stop_short_is_final_and_freezes_the_trim() {
+    let d = MotionParams::default();
+    let mut m = planner();
+    let target = SurfacePoint::new(0.01, 0.0);
+    m.start(SurfacePoint::new(0.0, 0.0), target, 0.01, 0.0)
+        .unwrap();
+    let end = m.finish_time_s().unwrap();
+    let stuck = SurfacePoint::new(0.005, 0.0);
+    let mut t = end;
+    let mut stopped_at = None;
+    while t < end + 3.0 * d.settle_timeout_s {
+        t += 1e-3;
+        if let (None, Arrival::StoppedShort(s)) = (stopped_at, m.observe(stuck, 0.0, t)) {
+            assert_eq!(s.reason, ShortfallReason::Stalled);
+            stopped_at = Some((t, m.trim()));
+        }
+    }
+    let (t_stop, trim) = stopped_at.expect("decided");
+    assert!(t_stop <= end + d.settle_timeout_s + 1e-3, "{t_stop}");
+    assert!(trim.x_m > 0.0, "it was trimmed while undecided");
+    assert_eq!(m.trim(), trim, "no creeping after the verdict");
+    // Creeping in afterwards does not turn a stop short into an arrival.
+    assert!(matches!(
+        m.observe(target, 0.0, t + 1.0),
+        Arrival::StoppedShort(_)
+    ));
+}
+
+proptest! {
+    /// Every move ends: whatever finite belief the encoders give, the verdict is reached by
+    /// `settle_timeout_s` after the profile and never changes afterwards.
+    #[test]
+    fn every_move_is_decided_within_the_settling_time(
+        obs in proptest::collection::vec((-0.02f64..0.03, -0.02f64..0.02, 0.0f64..0.05), 1..200),
+        dt in 1e-3f64..0.05,
+    ) {
+        let d = MotionParams::default();
+        let mut m = planner();
+        m.start(SurfacePoint::new(0.0, 0.0), SurfacePoint::new(0.01, 0.0), 0.01, 0.0)
+            .unwrap();
+        let end = m.finish_time_s().unwrap();
+        let mut t = end - 0.2;
+        let mut decided: Option<Arrival> = None;
+        for &(x, z, v) in &obs {
+            t += dt;
+            let a = m.observe(SurfacePoint::new(x, z), v, t);
+            if let Some(prev) = decided {
+                prop_assert_eq!(a, prev);
+            } else if a != Arrival::Moving {
+                decided = Some(a);
+            } else {
+                prop_assert!(t < end + d.settle_timeout_s, "undecided at {} s", t - end);
+            }
+        }
+    }
+}

@@ -194,8 +194,9 @@ impl Servo for CoreServo {
         let speed = self
             .believed_speed(state)
             .map_err(|e| kinematic_fault(&e, now_s))?;
-        // The outer loop that takes the PD's steady error out once a move's profile is done.
-        self.planner.trim_toward_target(believed, speed, now_s);
+        // Judged from the encoders through the kinematics, never from the setpoint; the
+        // first verdict of a move is kept. Until then the outer loop trims a stalled arm.
+        let arrival = self.planner.observe(believed, speed, now_s);
         let (p, v) = self
             .planner
             .setpoint(now_s)
@@ -209,8 +210,6 @@ impl Servo for CoreServo {
             .pd
             .step(&js, state, &g, dt_s)
             .map_err(|e| pd_fault(&e, now_s))?;
-        // Judged from the encoders through the kinematics, never from the setpoint.
-        let arrival = self.planner.arrival(believed, speed, now_s);
         Ok(ServoStep {
             torques,
             setpoint: SurfacePoint::new(p.x, p.z),
