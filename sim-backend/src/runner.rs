@@ -14,7 +14,7 @@ use control::frames::SurfacePoint;
 use control::kinematics::ArmModel;
 use control::motion::{Arrival, MotionPlanner, Shortfall};
 use control::pd::PdController;
-use control::pd::gravity::{GravityModel, PhantomGravity};
+use control::pd::gravity::{ArmGravity, GravityModel};
 use control::tracker::{
     EndReason, MotionCommand, TrackLimit, Tracker, TrackerEvent, TrackerInput, TrackerPhase,
 };
@@ -81,7 +81,7 @@ struct Lockstep {
     model: ArmModel,
     pd: PdController,
     planner: MotionPlanner,
-    gravity: PhantomGravity,
+    gravity: ArmGravity,
     tracker: Box<dyn Tracker>,
     /// The joint setpoint of a planner at rest, reused until the planner moves.
     rest_setpoint: Option<(Point3<f64>, JointSetpoint)>,
@@ -100,6 +100,16 @@ struct Lockstep {
     /// The true sensor at each recent frame, to score a localization at the time it was
     /// made (its event may come out a few frames later, once the next move has begun).
     recent_truth: std::collections::VecDeque<(f64, SurfacePoint)>,
+}
+
+/// The instrument the controller compensates: the config's, with its mass filled from the
+/// scene's mass section (what a user would weigh and type in; no mass section: none added).
+/// No `instrument` section in the config: none, as on a rig configured without one.
+fn instrument(config: &config::Config, scene: &Scene) -> Option<control::pd::gravity::Instrument> {
+    config.instrument.map(|i| control::pd::gravity::Instrument {
+        mass_kg: scene.mass.map_or(0.0, |m| m.mass_kg),
+        ..i
+    })
 }
 
 /// Frames of true positions kept for scoring late events (a second at 100 Hz).
@@ -138,7 +148,12 @@ impl Lockstep {
             model,
             pd,
             planner,
-            gravity: PhantomGravity::new(&config.robot.link_masses),
+            gravity: ArmGravity::new(
+                &config.robot.link_masses,
+                &config.robot.phantom,
+                &config.robot.pivot,
+                instrument(config, scene).as_ref(),
+            ),
             tracker,
             rest_setpoint: None,
             believed: Point3::origin(),

@@ -1,12 +1,13 @@
 //! The servo built from the control core: `ArmModel` (joints <-> sensor centre),
 //! `MotionPlanner` (straight-line setpoints at the contact height), `PdController` with
-//! `PhantomGravity`. Every control-core error becomes a named fault with its numbers.
+//! `ArmGravity` (the arm and the configured instrument). Every control-core error becomes a named fault with its numbers.
 
 use config::Config;
 use control::frames::SurfacePoint;
 use control::kinematics::{ArmModel, KinematicsError};
 use control::motion::{Arrival, MotionPlanner};
-use control::pd::{GravityModel, PdController, PdFault, PhantomGravity};
+use control::pd::gravity::ArmGravity;
+use control::pd::{GravityModel, PdController, PdFault};
 use control::types::{JointState, Joints};
 use nalgebra::{Point3, Vector3};
 
@@ -20,7 +21,7 @@ pub struct CoreServo {
     arm: ArmModel,
     planner: MotionPlanner,
     pd: PdController,
-    gravity: PhantomGravity,
+    gravity: ArmGravity,
 }
 
 pub fn build(c: &Config) -> Result<Box<dyn Servo>, String> {
@@ -37,7 +38,13 @@ impl CoreServo {
             planner: MotionPlanner::new(c.control.motion)
                 .map_err(|e| format!("control.motion: {e}"))?,
             pd: PdController::new(c.control.pd).map_err(|e| format!("control.pd: {e}"))?,
-            gravity: PhantomGravity::new(&c.robot.link_masses),
+            // The arm's bodies and the instrument's weight beyond its contact load.
+            gravity: ArmGravity::new(
+                &c.robot.link_masses,
+                &c.robot.phantom,
+                &c.robot.pivot,
+                c.instrument.as_ref(),
+            ),
         })
     }
 }
