@@ -417,7 +417,7 @@ fn a_moves_first_verdict_stands_through_speed_spikes_at_rest() {
     let end = m.finish_time_s().unwrap();
     let near = SurfacePoint::new(0.0092, 0.0);
     // Frames at 100 Hz; a 30 mm/s spike on one frame in fifty, the rest at rest.
-    let speed = |i: u32| if i % 50 == 0 { 0.03 } else { 0.0 };
+    let speed = |i: u32| if i.is_multiple_of(50) { 0.03 } else { 0.0 };
     let mut first = None;
     for i in 1..2000 {
         let t = end + f64::from(i) * 0.01;
