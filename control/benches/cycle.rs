@@ -15,6 +15,7 @@ use pulsetrack_control::kinematics::{
     PivotGeometry, phantom, tissue_under_pivot,
 };
 use pulsetrack_control::motion::{MotionParams, MotionPlanner};
+use pulsetrack_control::pd::gravity::{ArmGravity, Instrument};
 use pulsetrack_control::pd::{GravityModel, PdController, PdParams, PhantomGravity, PhantomMasses};
 use pulsetrack_control::types::{JointSetpoint, JointState};
 
@@ -67,6 +68,25 @@ fn main() {
         .collect();
     let v = Vector3::new(0.02, 0.0, -0.01);
     let gravity = PhantomGravity::new(&PhantomMasses::default());
+    // The seed's rig with 0.6 kg on the shaft against its 0.3 kg contact load (the config's
+    // limit would refuse it, but the cost per call does not depend on the weight).
+    let heavy = Instrument {
+        mass_kg: 0.6,
+        contact_load_n: 0.3 * 9.81,
+    };
+    let bare = ArmGravity::new(&PhantomMasses::default(), &geom, &pivot, None);
+    let with_instrument = ArmGravity::new(&PhantomMasses::default(), &geom, &pivot, Some(&heavy));
+    // A finished move whose arm stalled 3 mm short: undecided (judging and trimming every
+    // call) for the settling time; and one already decided.
+    let mut stalled = MotionPlanner::new(MotionParams::default()).expect("default motion");
+    let target = SurfacePoint::new(0.01, 0.0);
+    stalled
+        .start(SurfacePoint::new(0.0, 0.0), target, 0.01, 0.0)
+        .expect("valid move");
+    let finish = stalled.finish_time_s().expect("a move");
+    let short = SurfacePoint::new(0.007, 0.0);
+    let mut decided = stalled.clone();
+    decided.observe(target, 0.0, finish);
     let mut pd = PdController::new(PdParams::default()).expect("default gains");
     let mut planner = MotionPlanner::new(MotionParams::default()).expect("default motion");
     planner
@@ -132,6 +152,32 @@ fn main() {
             }),
         ),
         (
+            "ArmGravity::torque_nm, no instrument",
+            median_ns(|i| {
+                black_box(bare.torque_nm(black_box(&joints[i % 64])));
+            }),
+        ),
+        (
+            "ArmGravity::torque_nm, instrument",
+            median_ns(|i| {
+                black_box(with_instrument.torque_nm(black_box(&joints[i % 64])));
+            }),
+        ),
+        (
+            "MotionPlanner::observe, undecided (judge + trim)",
+            median_ns(|i| {
+                let t = finish + 0.1 + (i % 1000) as f64 * 1e-6;
+                black_box(stalled.observe(black_box(short), 0.0, t));
+            }),
+        ),
+        (
+            "MotionPlanner::observe, decided",
+            median_ns(|i| {
+                let t = finish + 0.1 + (i % 1000) as f64 * 1e-6;
+                black_box(decided.observe(black_box(short), 0.0, t));
+            }),
+        ),
+        (
             "MotionPlanner::setpoint",
             median_ns(|i| {
                 black_box(planner.setpoint(black_box(i as f64 * 1e-4)));
@@ -144,6 +190,23 @@ fn main() {
                 let (p, vel) = planner.setpoint(i as f64 * 1e-4).expect("running");
                 let sp = arm.joint_setpoint(&p, &vel).expect("reachable");
                 let g = gravity.torque_nm(&sp.position_rad);
+                let st = JointState {
+                    t_s: 0.0,
+                    position_rad: sp.position_rad,
+                    velocity_rad_s: sp.velocity_rad_s,
+                };
+                black_box(pd.step(&sp, &st, &g, 1e-3).ok());
+            }),
+        ),
+        (
+            "one cycle + observe + instrument gravity",
+            median_ns(|i| {
+                let t = i as f64 * 1e-4;
+                let (p, vel) = planner.setpoint(t).expect("running");
+                let sp = arm.joint_setpoint(&p, &vel).expect("reachable");
+                let now = SurfacePoint::new(p.x, p.z);
+                black_box(planner.observe(now, 0.0, t));
+                let g = with_instrument.torque_nm(&sp.position_rad);
                 let st = JointState {
                     t_s: 0.0,
                     position_rad: sp.position_rad,

@@ -92,6 +92,7 @@ fn two_thousand_cycles_allocate_nothing() {
         pd.step(&sp, &state, &g, 1e-3).expect("no fault");
         q = sp.position_rad;
         let believed = arm.surface_point(&q).expect("in range");
+        planner.trim_toward_target(believed, 0.0, t);
         settled += usize::from(planner.settled(believed, 0.0, t));
     }
     COUNTING.with(|c| c.set(false));

@@ -15,6 +15,11 @@ use serde_json::{Value, json};
 const T: Duration = Duration::from_secs(10);
 
 fn start(dir: &Path) -> (Daemon, Client) {
+    start_with(dir, None)
+}
+
+/// The daemon on the double, joint 0 (the sensor's x) stopped at `wall_x_m` if given.
+fn start_with(dir: &Path, wall_x_m: Option<f64>) -> (Daemon, Client) {
     pulsetrack_daemon::service::logging::init("warn");
     let mut loaded = LoadedConfig::load(None).expect("embedded config");
     let c = &mut loaded.config;
@@ -27,7 +32,7 @@ fn start(dir: &Path) -> (Daemon, Client) {
     let daemon = Daemon::start_with(
         loaded,
         Parts {
-            backend: double::backend(),
+            backend: double::backend_with_wall(wall_x_m),
             servo: Box::new(double::FakeServo::default()),
             tracker: Box::new(|| Ok(Box::new(double::FakeTracker::new()))),
         },
@@ -261,5 +266,49 @@ fn bad_lines_get_errors_and_the_next_request_works() {
     assert!(floods > 0, "no flood errors");
     std::thread::sleep(Duration::from_millis(200));
     assert_eq!(state(&mut c), "disabled");
+    daemon.shutdown().expect("clean stop");
+}
+
+#[test]
+fn mark_is_refused_when_the_arm_stops_short_and_says_by_how_much() {
+    let dir = tempfile::tempdir().expect("tmp");
+    // The arm cannot pass x = 4 mm: a move to 10 mm stops 6 mm short.
+    let (daemon, mut c) = start_with(dir.path(), Some(0.004));
+    call(&mut c, "subscribe", json!({"streams": ["state"]}));
+    call(&mut c, "enable", json!({}));
+    call(&mut c, "move", json!({"x_m": 0.01, "z_m": 0.0}));
+    // The stop short is announced with the shortfall in m and in words.
+    let ev = loop {
+        let e = c
+            .next_event(Duration::from_secs(60))
+            .expect("event")
+            .expect("an event");
+        if e["event"] == "motion" && e["kind"] == "stopped_short" {
+            break e;
+        }
+    };
+    let short = ev["shortfall_m"].as_f64().expect("shortfall_m");
+    assert!((short - 0.006).abs() < 5e-4, "{ev}");
+    assert_eq!(ev["reason"], "stalled");
+    wait_state(&mut c, "holding");
+    let r = c.request("mark", json!({}), T).expect("reply");
+    assert_eq!(r["ok"], false, "marked where the arm did not get: {r}");
+    let text = r.to_string();
+    assert!(text.contains("mm short") && text.contains("6.0"), "{text}");
+    // Nothing was marked: no trial, no seed.
+    let status = call(&mut c, "status", json!({}));
+    assert!(status["trial"].is_null(), "{status}");
+    // A move that arrives makes marking possible again.
+    call(&mut c, "move", json!({"x_m": 0.003, "z_m": 0.0}));
+    wait_state(&mut c, "holding");
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let r = c.request("mark", json!({}), T).expect("reply");
+        if r["ok"] == true {
+            break;
+        }
+        assert!(Instant::now() < deadline, "mark still refused: {r}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
     daemon.shutdown().expect("clean stop");
 }

@@ -12,9 +12,9 @@ use std::time::Instant;
 
 use control::frames::SurfacePoint;
 use control::kinematics::ArmModel;
-use control::motion::MotionPlanner;
+use control::motion::{Arrival, MotionPlanner, Shortfall};
 use control::pd::PdController;
-use control::pd::gravity::{GravityModel, PhantomGravity};
+use control::pd::gravity::{ArmGravity, GravityModel};
 use control::tracker::{
     EndReason, MotionCommand, TrackLimit, Tracker, TrackerEvent, TrackerInput, TrackerPhase,
 };
@@ -66,6 +66,13 @@ enum Stop {
     Timeout,
     /// The controller or the kinematics refused.
     Fault(String),
+    /// The arm stopped short of a placement or a tracking target (judged from the
+    /// encoders): nothing is marked or fixed there.
+    ShortOfTarget {
+        what: String,
+        target: SurfacePoint,
+        shortfall: Shortfall,
+    },
 }
 
 /// Everything one trial drives.
@@ -74,7 +81,7 @@ struct Lockstep {
     model: ArmModel,
     pd: PdController,
     planner: MotionPlanner,
-    gravity: PhantomGravity,
+    gravity: ArmGravity,
     tracker: Box<dyn Tracker>,
     /// The joint setpoint of a planner at rest, reused until the planner moves.
     rest_setpoint: Option<(Point3<f64>, JointSetpoint)>,
@@ -93,6 +100,16 @@ struct Lockstep {
     /// The true sensor at each recent frame, to score a localization at the time it was
     /// made (its event may come out a few frames later, once the next move has begun).
     recent_truth: std::collections::VecDeque<(f64, SurfacePoint)>,
+}
+
+/// The instrument the controller compensates: the config's, with its mass filled from the
+/// scene's mass section (what a user would weigh and type in; no mass section: none added).
+/// No `instrument` section in the config: none, as on a rig configured without one.
+fn instrument(config: &config::Config, scene: &Scene) -> Option<control::pd::gravity::Instrument> {
+    config.instrument.map(|i| control::pd::gravity::Instrument {
+        mass_kg: scene.mass.map_or(0.0, |m| m.mass_kg),
+        ..i
+    })
 }
 
 /// Frames of true positions kept for scoring late events (a second at 100 Hz).
@@ -131,7 +148,12 @@ impl Lockstep {
             model,
             pd,
             planner,
-            gravity: PhantomGravity::new(&config.robot.link_masses),
+            gravity: ArmGravity::new(
+                &config.robot.link_masses,
+                &config.robot.phantom,
+                &config.robot.pivot,
+                instrument(config, scene).as_ref(),
+            ),
             tracker,
             rest_setpoint: None,
             believed: Point3::origin(),
@@ -211,6 +233,18 @@ impl Lockstep {
             {
                 return Ok(Some(sp));
             }
+            let trim = self.planner.trim();
+            if trim.x_m != 0.0 || trim.z_m != 0.0 {
+                // Being trimmed onto the target: millimetres from a point the guard passed
+                // (the move's target), so the inverse kinematics alone, as during moves.
+                let q = self.model.joints_for_sensor(&p)?;
+                let sp = JointSetpoint {
+                    position_rad: q,
+                    velocity_rad_s: [0.0; 3],
+                };
+                self.rest_setpoint = Some((p, sp));
+                return Ok(Some(sp));
+            }
             let sp = self.model.joint_setpoint(&p, &v)?;
             self.rest_setpoint = Some((p, sp));
             return Ok(Some(sp));
@@ -278,6 +312,11 @@ impl Lockstep {
                 self.update_belief()
                     .and_then(|()| self.update_believed_speed())
                     .map_err(|e| Stop::Fault(e.to_string()))?;
+                // Judge the move (and trim a stalled arm) once per frame: the verdict the
+                // frame is fed with.
+                let (b, t) = (self.believed_surface(), self.now());
+                let v = self.believed_speed_m_s;
+                self.planner.observe(b, v, t);
                 if self.recording_first {
                     self.first_acquisition.push(f);
                 }
@@ -306,6 +345,22 @@ impl Lockstep {
         Ok(())
     }
 
+    /// Hold where the robot believes the sensor is over the surface, at the setpoint's
+    /// height (the contact load stays as it was).
+    fn hold_at_believed(&mut self) -> Result<(), SimError> {
+        let t = self.now();
+        let y = self
+            .planner
+            .setpoint(t)
+            .map_or(self.believed.y, |(p, _)| p.y);
+        let here = Point3::new(self.believed.x, y, self.believed.z);
+        self.planner
+            .hold_point(here, t)
+            .map_err(|e| SimError::Control(e.to_string()))?;
+        self.last_move_target = None;
+        Ok(())
+    }
+
     fn hold_here(&mut self) -> Result<(), SimError> {
         let t = self.now();
         let here = self
@@ -320,17 +375,23 @@ impl Lockstep {
         Ok(())
     }
 
-    fn settled(&self) -> bool {
+    /// Where the current move stands: the planner's verdict from the believed (encoder)
+    /// position at the last frame, kept once decided; no motion at all counts as arrived.
+    fn arrival(&self) -> Arrival {
         if self.planner.target().is_none() {
-            return true;
+            return Arrival::Arrived;
         }
-        self.planner
-            .settled(self.believed_surface(), self.believed_speed_m_s, self.now())
+        self.planner.verdict()
     }
 
-    /// The surgeon moves the sensor to a placement and waits for it to settle, in the way
-    /// the scene says ([`Placing`]).
-    fn place(&mut self, at: SurfacePoint, placing: Placing) -> Result<(), Stop> {
+    fn settled(&self) -> bool {
+        self.arrival() == Arrival::Arrived
+    }
+
+    /// The surgeon moves the sensor to a placement and waits for it to arrive, in the way
+    /// the scene says ([`Placing`]). An arm that stops short ends the trial there: a mark
+    /// is made only where the arm really is.
+    fn place(&mut self, index: usize, at: SurfacePoint, placing: Placing) -> Result<(), Stop> {
         match placing {
             Placing::Robot => self
                 .move_to(at, PLACEMENT_SPEED_M_S)
@@ -339,9 +400,36 @@ impl Lockstep {
         }
         loop {
             self.next_frame()?;
-            if self.settled() {
-                return Ok(());
+            match self.arrival() {
+                Arrival::Arrived => return Ok(()),
+                Arrival::Moving => {}
+                Arrival::StoppedShort(shortfall) => {
+                    return Err(self.stopped_short(format!("placement {}", index + 1), shortfall));
+                }
             }
+        }
+    }
+
+    /// Come to rest where the arm is (not where it could not get) and say so.
+    fn stopped_short(&mut self, what: String, shortfall: Shortfall) -> Stop {
+        let target = self
+            .planner
+            .target()
+            .unwrap_or_else(|| self.believed_surface());
+        if let Err(e) = self.hold_at_believed() {
+            return Stop::Fault(e.to_string());
+        }
+        self.last_move_target = None;
+        self.log.push(format!(
+            "{:8.2} s  {what}: {shortfall} at ({:.2}, {:.2}) mm",
+            self.now(),
+            target.x_m * 1e3,
+            target.z_m * 1e3
+        ));
+        Stop::ShortOfTarget {
+            what,
+            target,
+            shortfall,
         }
     }
 
@@ -372,7 +460,11 @@ impl Lockstep {
                 .finish_time_s()
                 .is_some_and(|end| self.now() < end);
             if to_go <= 0.0 || !moving {
-                return self.hold_here().map_err(|e| Stop::Fault(e.to_string()));
+                // The surgeon stops the arm where it is, not where its setpoint has run
+                // ahead to.
+                return self
+                    .hold_at_believed()
+                    .map_err(|e| Stop::Fault(e.to_string()));
             }
         }
     }
@@ -487,7 +579,7 @@ impl Lockstep {
         let mut outcome = Outcome::default();
         let seeded = (|| -> Result<bool, Stop> {
             for (i, placement) in scene.placements.iter().enumerate() {
-                self.place(*placement, scene.placed_by)?;
+                self.place(i, *placement, scene.placed_by)?;
                 self.recording_first = i == 0;
                 let found = self.mark()?;
                 self.recording_first = false;
@@ -538,6 +630,7 @@ impl Lockstep {
             completed: outcome.end_reason == EndReason::LengthReached.as_str(),
             end_reason: outcome.end_reason,
             detail: outcome.detail,
+            shortfall: outcome.shortfall,
             lateral_error_m: lateral,
             false_points,
             tracked_length_m,
@@ -563,7 +656,17 @@ impl Lockstep {
         outcome.tracking_from_s = Some(t0);
         outcome.beats_at_start = self.bench.beats_started_by(t0);
         loop {
-            let step = self.next_frame().and_then(|f| self.feed(&f));
+            let step = self.next_frame().and_then(|f| {
+                // A tracker's move that stops short ends the trial before the tracker could
+                // take the frame as a fix from a place the arm did not reach.
+                if self.last_move_target.is_some()
+                    && let Arrival::StoppedShort(shortfall) = self.arrival()
+                {
+                    self.tracker.stop();
+                    return Err(self.stopped_short("tracking target".into(), shortfall));
+                }
+                self.feed(&f)
+            });
             match step {
                 Ok(Some(TrackerEvent::Finished { reason, .. })) => {
                     outcome.end_reason = reason.as_str().to_string();
@@ -586,7 +689,11 @@ struct Outcome {
     detail: Option<String>,
     tracking_from_s: Option<f64>,
     beats_at_start: u64,
+    shortfall: Option<crate::trial::ShortfallReport>,
 }
+
+/// The end reason of a trial whose arm stopped short of a placement or a tracking target.
+pub const SHORT_OF_TARGET: &str = "short_of_target";
 
 impl Outcome {
     fn stopped(&mut self, stop: Stop) {
@@ -600,6 +707,25 @@ impl Outcome {
             Stop::Fault(m) => {
                 self.end_reason = "fault".into();
                 self.detail = Some(m);
+            }
+            Stop::ShortOfTarget {
+                what,
+                target,
+                shortfall,
+            } => {
+                self.end_reason = SHORT_OF_TARGET.into();
+                self.detail = Some(format!(
+                    "{what} at ({:.2}, {:.2}) mm not reached: {shortfall}; nothing was marked or fixed there",
+                    target.x_m * 1e3,
+                    target.z_m * 1e3
+                ));
+                self.shortfall = Some(crate::trial::ShortfallReport {
+                    what,
+                    target_x_m: target.x_m,
+                    target_z_m: target.z_m,
+                    shortfall_m: shortfall.distance_m,
+                    reason: shortfall.reason.as_str().into(),
+                });
             }
         }
     }

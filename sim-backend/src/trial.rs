@@ -87,6 +87,21 @@ pub fn abs_percentile(values: &[f64], q: f64) -> f64 {
     abs[rank.clamp(1, abs.len()) - 1]
 }
 
+/// An arm that stopped short of where it was sent (judged from the encoders through the
+/// kinematics): nothing was marked or fixed there.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ShortfallReport {
+    /// `placement 1`, `placement 2` or `tracking target`.
+    pub what: String,
+    /// Where the arm was sent, tissue frame, m.
+    pub target_x_m: f64,
+    pub target_z_m: f64,
+    /// Believed sensor centre to the target when the settling time ran out, m.
+    pub shortfall_m: f64,
+    /// `stalled` (at rest short of it) or `not_at_rest`.
+    pub reason: String,
+}
+
 /// One trial's result.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TrialResult {
@@ -105,12 +120,16 @@ pub struct TrialResult {
     /// True if the trial followed the requested length.
     pub completed: bool,
     /// Why tracking ended: `length_reached`, `lost`, `workspace_edge`, `stopped`, or the
-    /// runner's own `not_seeded` (a manual placement found no pulse), `timeout` (simulated
-    /// time limit) and `fault` (the controller tripped).
+    /// runner's own `not_seeded` (a manual placement found no pulse), `short_of_target` (the
+    /// arm stopped short of a placement or a tracking target: see `shortfall`), `timeout`
+    /// (simulated time limit) and `fault` (the controller tripped).
     pub end_reason: String,
     /// A sentence on what went wrong, when something did.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub detail: Option<String>,
+    /// With `short_of_target`: where the arm did not get, by how much and why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shortfall: Option<ShortfallReport>,
     /// Lateral error of the autonomous points from the true path, m.
     pub lateral_error_m: LateralError,
     /// Located points (the manual placements' seed points included) more than

@@ -44,6 +44,8 @@ impl Validate for ControlSection {
             v.positive("settle_speed_m_s", m.settle_speed_m_s);
             v.in_range("contact_height_m", m.contact_height_m, -0.02, 0.02);
             v.non_negative("settle_timeout_s", m.settle_timeout_s);
+            v.non_negative("trim_rate_per_s", m.trim_rate_per_s);
+            v.in_range("trim_max_m", m.trim_max_m, 0.0, 0.01);
         });
     }
 }

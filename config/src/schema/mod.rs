@@ -7,6 +7,7 @@
 mod backend;
 mod control_section;
 mod daemon_sections;
+mod instrument;
 mod robot;
 mod tracker_section;
 
@@ -50,6 +51,9 @@ pub struct Config {
     pub console: ConsoleSection,
     #[serde(default)]
     pub recording: RecordingSection,
+    /// What the gimbal carries; absent: only the arm's own bodies are gravity-compensated.
+    #[serde(default)]
+    pub instrument: Option<control::pd::gravity::Instrument>,
 }
 
 impl Validate for Config {
@@ -75,6 +79,11 @@ impl Validate for Config {
         v.section("realtime", &self.realtime);
         v.section("console", &self.console);
         v.section("recording", &self.recording);
+        if let Some(i) = &self.instrument {
+            v.at("instrument", |v| {
+                instrument::validate(i, &self.robot, &self.control, v);
+            });
+        }
     }
 }
 

@@ -5,7 +5,14 @@
 //! (acceleration-limited) profile that starts and ends at rest: the seed's robot stops to
 //! sample. [`MotionPlanner::setpoint`] gives the position and velocity to command at a time
 //! (turned into joint setpoints by [`crate::kinematics::ArmModel::joint_setpoint`]);
-//! [`MotionPlanner::settled`] says when the tracker may sample again.
+//! [`MotionPlanner::arrival`] says whether the sensor has arrived (judged from the encoders,
+//! never assumed from the setpoint), is still on its way, or stopped short and by how much;
+//! [`MotionPlanner::settled`] (arrived) says when the tracker may sample again.
+//! [`MotionPlanner::observe`] is what the loops call: it trims a stalled arm and *latches*
+//! the first verdict of a move (arrived or stopped short), so that every move ends, once, at
+//! most `settle_timeout_s` after its profile. An instantaneous judgement alone flickers at
+//! rest (encoder speed spikes with each heartbeat) and a tracker waiting for an unbroken
+//! stretch of arrival would wait for ever.
 //!
 //! Heights: the setpoint's `y` is `contact_height_m`, a few mm below the surface, so that
 //! the low-gain PD and the tissue act as two springs pressing the sensor in. Settling is
@@ -42,6 +49,23 @@ struct Move {
     target: SurfacePoint,
 }
 
+/// The setpoint's offset after a move's profile (see [`MotionPlanner::trim_toward_target`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Trim {
+    x_m: f64,
+    z_m: f64,
+    /// When it was last updated, s.
+    t_s: Option<f64>,
+}
+
+impl Trim {
+    const ZERO: Trim = Trim {
+        x_m: 0.0,
+        z_m: 0.0,
+        t_s: None,
+    };
+}
+
 impl Move {
     fn finish_s(&self) -> f64 {
         self.start_s + self.profile.duration_s()
@@ -52,6 +76,10 @@ impl Move {
 pub struct MotionPlanner {
     params: MotionParams,
     current: Option<Move>,
+    trim: Trim,
+    /// The current move's verdict once it is decided: `Arrived` or `StoppedShort`, kept
+    /// until the next start, hold or clear.
+    verdict: Option<Arrival>,
 }
 
 fn finite_point(what: &'static str, p: &Point3<f64>) -> Result<(), MotionError> {
@@ -94,9 +122,17 @@ impl MotionPlanner {
         if !params.contact_height_m.is_finite() {
             return bad("contact_height_m must be finite");
         }
+        if !(params.trim_rate_per_s.is_finite() && params.trim_rate_per_s >= 0.0) {
+            return bad("trim_rate_per_s must not be negative");
+        }
+        if !(params.trim_max_m.is_finite() && params.trim_max_m >= 0.0) {
+            return bad("trim_max_m must not be negative");
+        }
         Ok(Self {
             params,
             current: None,
+            trim: Trim::ZERO,
+            verdict: None,
         })
     }
 
@@ -156,6 +192,9 @@ impl MotionPlanner {
             Vector3::zeros()
         };
         let speed = speed_m_s.min(self.params.max_speed_m_s);
+        // `from` is where the setpoint is, trim included: the new profile takes it over.
+        self.trim = Trim::ZERO;
+        self.verdict = None;
         self.current = Some(Move {
             from,
             direction,
@@ -176,6 +215,8 @@ impl MotionPlanner {
     pub fn hold_point(&mut self, at: Point3<f64>, t_s: f64) -> Result<(), MotionError> {
         finite_time(t_s)?;
         finite_point("hold point", &at)?;
+        self.trim = Trim::ZERO;
+        self.verdict = None;
         self.current = Some(Move {
             from: at,
             direction: Vector3::zeros(),
@@ -189,6 +230,90 @@ impl MotionPlanner {
     /// Forget the current move: no setpoint until the next start or hold.
     pub fn clear(&mut self) {
         self.current = None;
+        self.trim = Trim::ZERO;
+        self.verdict = None;
+    }
+
+    /// What the loops call whenever the belief is refreshed (every servo cycle, or every
+    /// frame): judges the move ([`Self::arrival`]) and, while it is undecided, trims a
+    /// stalled arm ([`Self::trim_toward_target`]). The first `Arrived` or `StoppedShort` is
+    /// the move's verdict and is returned from then on, whatever the arm does, until the
+    /// next start, hold or clear: a move is decided at the latest `settle_timeout_s` after
+    /// its profile, and once decided the trim stops moving the setpoint. Non-finite input
+    /// is no observation (`Moving`, or the verdict already reached). No allocation.
+    pub fn observe(
+        &mut self,
+        believed: SurfacePoint,
+        believed_speed_m_s: f64,
+        t_s: f64,
+    ) -> Arrival {
+        if let Some(v) = self.verdict {
+            return v;
+        }
+        let a = self.arrival(believed, believed_speed_m_s, t_s);
+        if a == Arrival::Moving {
+            self.trim_toward_target(believed, believed_speed_m_s, t_s);
+            return a;
+        }
+        self.verdict = Some(a);
+        a
+    }
+
+    /// The current move's verdict as [`Self::observe`] last left it: `Moving` until it is
+    /// decided, and with no move.
+    pub fn verdict(&self) -> Arrival {
+        self.verdict.unwrap_or(Arrival::Moving)
+    }
+
+    /// One step of the outer loop that makes a finished move arrive: while the believed
+    /// sensor centre (encoders through the kinematics) is farther than `settle_tolerance_m`
+    /// from the target, the setpoint is moved toward where the arm must go at
+    /// `trim_rate_per_s` times the error, up to `trim_max_m`; within the tolerance it stays.
+    /// Call it whenever the belief is refreshed (every servo cycle, or every frame); the
+    /// time since the last call (at most 0.05 s counted) is the step. Does nothing during
+    /// the profile, with no move, or with non-finite input. No allocation.
+    pub fn trim_toward_target(
+        &mut self,
+        believed: SurfacePoint,
+        believed_speed_m_s: f64,
+        t_s: f64,
+    ) {
+        let Some(m) = self.current else {
+            return;
+        };
+        if !(believed.is_finite() && believed_speed_m_s.is_finite() && t_s.is_finite())
+            || t_s < m.finish_s()
+        {
+            return;
+        }
+        let dt = self
+            .trim
+            .t_s
+            .map_or(0.0, |last| (t_s - last).clamp(0.0, 0.05));
+        self.trim.t_s = Some(t_s);
+        // Only a stalled arm is trimmed: one still coasting in gets there by itself.
+        if believed_speed_m_s.abs() >= self.params.settle_speed_m_s {
+            return;
+        }
+        let (ex, ez) = (m.target.x_m - believed.x_m, m.target.z_m - believed.z_m);
+        if ex.hypot(ez) <= self.params.settle_tolerance_m {
+            return;
+        }
+        let k = self.params.trim_rate_per_s * dt;
+        let (x, z) = (self.trim.x_m + k * ex, self.trim.z_m + k * ez);
+        let n = x.hypot(z);
+        let scale = if n > self.params.trim_max_m {
+            self.params.trim_max_m / n
+        } else {
+            1.0
+        };
+        self.trim.x_m = x * scale;
+        self.trim.z_m = z * scale;
+    }
+
+    /// The setpoint's current trim over the surface, m (zero during a profile).
+    pub fn trim(&self) -> SurfacePoint {
+        SurfacePoint::new(self.trim.x_m, self.trim.z_m)
     }
 
     /// Where the current move or hold is going, over the surface.
@@ -215,28 +340,128 @@ impl MotionPlanner {
             return None;
         }
         let s = m.profile.sample(t_s - m.start_s);
-        Some((m.from + m.direction * s.s_m, m.direction * s.speed_m_s))
+        let trim = Vector3::new(self.trim.x_m, 0.0, self.trim.z_m);
+        Some((
+            m.from + m.direction * s.s_m + trim,
+            m.direction * s.speed_m_s,
+        ))
     }
 
-    /// The move has arrived: its profile has finished and the believed sensor centre is
-    /// within `settle_tolerance_m` of the target (over the surface) and slower than
-    /// `settle_speed_m_s`; or `settle_timeout_s` has passed since the profile finished (a
-    /// low-gain PD against friction may never get within the tolerance). False with no
-    /// move or with any non-finite input.
-    pub fn settled(&self, believed: SurfacePoint, believed_speed_m_s: f64, t_s: f64) -> bool {
+    /// Where the current move stands, judged from the *believed* sensor centre (the encoders
+    /// through the kinematic model, never the setpoint) and its speed over the surface:
+    ///
+    /// - [`Arrival::Arrived`]: the profile has finished and the believed centre is within
+    ///   `settle_tolerance_m` of the target (over the surface, the boundary included) and
+    ///   slower than `settle_speed_m_s`;
+    /// - [`Arrival::StoppedShort`]: `settle_timeout_s` has passed since the profile finished
+    ///   and it has not arrived (a low-gain PD against friction or a heavy load), with the
+    ///   distance still to go and why;
+    /// - [`Arrival::Moving`] otherwise, also with no move and with any non-finite input
+    ///   (nothing it could vouch for).
+    ///
+    /// A pure function of its inputs, the instantaneous judgement: at rest it can flicker
+    /// between `Arrived` and `StoppedShort` as the measured speed crosses the threshold; the
+    /// loops use [`Self::observe`], which keeps the first verdict. No allocation; a few
+    /// flops (it runs every servo cycle).
+    pub fn arrival(&self, believed: SurfacePoint, believed_speed_m_s: f64, t_s: f64) -> Arrival {
         let Some(m) = self.current else {
-            return false;
+            return Arrival::Moving;
         };
         if !(believed.is_finite() && believed_speed_m_s.is_finite() && t_s.is_finite()) {
-            return false;
+            return Arrival::Moving;
         }
         let finish = m.finish_s();
         if t_s < finish {
-            return false;
+            return Arrival::Moving;
         }
-        let arrived = believed.distance_to(&m.target) <= self.params.settle_tolerance_m
-            && believed_speed_m_s.abs() < self.params.settle_speed_m_s;
-        arrived || t_s - finish >= self.params.settle_timeout_s
+        let to_go_m = believed.distance_to(&m.target);
+        let close = to_go_m <= self.params.settle_tolerance_m;
+        let at_rest = believed_speed_m_s.abs() < self.params.settle_speed_m_s;
+        if close && at_rest {
+            return Arrival::Arrived;
+        }
+        if t_s - finish < self.params.settle_timeout_s {
+            return Arrival::Moving;
+        }
+        Arrival::StoppedShort(Shortfall {
+            distance_m: to_go_m,
+            reason: if at_rest {
+                ShortfallReason::Stalled
+            } else {
+                ShortfallReason::NotAtRest
+            },
+        })
+    }
+
+    /// The move has really arrived ([`Self::arrival`] is [`Arrival::Arrived`]): what a
+    /// tracker's `settled` means. False while moving, after a stop short of the target, with
+    /// no move, and with any non-finite input.
+    pub fn settled(&self, believed: SurfacePoint, believed_speed_m_s: f64, t_s: f64) -> bool {
+        self.arrival(believed, believed_speed_m_s, t_s) == Arrival::Arrived
+    }
+}
+
+/// Where a move stands (see [`MotionPlanner::arrival`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Arrival {
+    /// Under way, or still within the settling time after the profile ended (or nothing to
+    /// judge).
+    Moving,
+    /// The believed sensor centre is within the tolerance of the target and at rest.
+    Arrived,
+    /// The settling time is over and the arm is not there.
+    StoppedShort(Shortfall),
+}
+
+/// How far short of its target a move ended, and why.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shortfall {
+    /// Believed sensor centre to the target over the surface, m (more than the tolerance, or
+    /// within it but not at rest).
+    pub distance_m: f64,
+    pub reason: ShortfallReason,
+}
+
+/// Why a move did not arrive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShortfallReason {
+    /// At rest outside the tolerance: the drive cannot push further (joint or tissue
+    /// friction, an uncompensated load).
+    Stalled,
+    /// Still moving faster than the settling speed after the settling time (oscillating,
+    /// creeping, or pushed by something).
+    NotAtRest,
+}
+
+impl ShortfallReason {
+    /// snake_case, as JSON and end reasons spell it.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            ShortfallReason::Stalled => "stalled",
+            ShortfallReason::NotAtRest => "not_at_rest",
+        }
+    }
+
+    /// In words for people.
+    pub fn describe(&self) -> &'static str {
+        match self {
+            ShortfallReason::Stalled => {
+                "came to rest short of it (friction or a load the drive cannot overcome)"
+            }
+            ShortfallReason::NotAtRest => "was still moving when the settling time ran out",
+        }
+    }
+}
+
+impl std::fmt::Display for Shortfall {
+    /// For people: mm, with the reason.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the arm stopped {:.2} mm short of its target: it {}",
+            self.distance_m * 1e3,
+            self.reason.describe()
+        )
     }
 }
 

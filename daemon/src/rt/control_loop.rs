@@ -273,6 +273,7 @@ impl ControlLoop {
                 frame,
                 sensor: self.status.sensor,
                 settled: self.status.settled,
+                shortfall: self.status.shortfall,
                 motion_seq: self.status.motion_seq,
                 contact_n,
             };
@@ -303,6 +304,7 @@ impl ControlLoop {
         self.status.setpoint = step.setpoint;
         self.status.setpoint_rad = step.setpoint_rad;
         self.status.settled = step.settled;
+        self.status.shortfall = step.shortfall;
         Ok(torques)
     }
 
@@ -342,10 +344,27 @@ impl ControlLoop {
                 if self.status.mode != LoopMode::Enabled {
                     Err(Refusal::NotEnabled)
                 } else {
-                    self.servo.hold(now);
-                    self.status.motion_seq = seq;
-                    self.status.settled = false;
-                    Ok(())
+                    // After a stop short the setpoint is where the arm could not get: hold
+                    // where it is instead, so that nothing is left pushing toward it.
+                    let held = match (self.status.shortfall, joints) {
+                        (Some(_), Some(state)) => self.servo.hold_here(now, state),
+                        _ => {
+                            self.servo.hold(now);
+                            Ok(())
+                        }
+                    };
+                    match held {
+                        Ok(()) => {
+                            self.status.motion_seq = seq;
+                            self.status.settled = false;
+                            self.status.shortfall = None;
+                            Ok(())
+                        }
+                        Err(f) => {
+                            self.latch(f);
+                            Err(Refusal::Faulted)
+                        }
+                    }
                 }
             }
             ControlCommand::MoveTo {
@@ -361,6 +380,7 @@ impl ControlLoop {
                     self.servo.move_to(now, target, speed_m_s).map(|()| {
                         self.status.motion_seq = seq;
                         self.status.settled = false;
+                        self.status.shortfall = None;
                     })
                 }
             }
@@ -416,6 +436,7 @@ impl ControlLoop {
         self.status.setpoint = pose.centre;
         self.status.setpoint_rad = state.position_rad;
         self.status.settled = true;
+        self.status.shortfall = None;
         Ok(())
     }
 
@@ -487,6 +508,7 @@ impl ControlLoop {
         self.fault = None;
         self.status.mode = LoopMode::Disabled;
         self.status.settled = true;
+        self.status.shortfall = None;
         // What `status` shows as the setpoint is where the arm is now, not where it was
         // steering when the fault struck.
         self.status.setpoint_rad = state.position_rad;

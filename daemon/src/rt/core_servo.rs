@@ -1,12 +1,13 @@
 //! The servo built from the control core: `ArmModel` (joints <-> sensor centre),
 //! `MotionPlanner` (straight-line setpoints at the contact height), `PdController` with
-//! `PhantomGravity`. Every control-core error becomes a named fault with its numbers.
+//! `ArmGravity` (the arm and the configured instrument). Every control-core error becomes a named fault with its numbers.
 
 use config::Config;
 use control::frames::SurfacePoint;
 use control::kinematics::{ArmModel, KinematicsError};
-use control::motion::MotionPlanner;
-use control::pd::{GravityModel, PdController, PdFault, PhantomGravity};
+use control::motion::{Arrival, MotionPlanner};
+use control::pd::gravity::ArmGravity;
+use control::pd::{GravityModel, PdController, PdFault};
 use control::types::{JointState, Joints};
 use nalgebra::{Point3, Vector3};
 
@@ -20,7 +21,7 @@ pub struct CoreServo {
     arm: ArmModel,
     planner: MotionPlanner,
     pd: PdController,
-    gravity: PhantomGravity,
+    gravity: ArmGravity,
 }
 
 pub fn build(c: &Config) -> Result<Box<dyn Servo>, String> {
@@ -37,7 +38,13 @@ impl CoreServo {
             planner: MotionPlanner::new(c.control.motion)
                 .map_err(|e| format!("control.motion: {e}"))?,
             pd: PdController::new(c.control.pd).map_err(|e| format!("control.pd: {e}"))?,
-            gravity: PhantomGravity::new(&c.robot.link_masses),
+            // The arm's bodies and the instrument's weight beyond its contact load.
+            gravity: ArmGravity::new(
+                &c.robot.link_masses,
+                &c.robot.phantom,
+                &c.robot.pivot,
+                c.instrument.as_ref(),
+            ),
         })
     }
 }
@@ -187,6 +194,16 @@ impl Servo for CoreServo {
     }
 
     fn step(&mut self, now_s: f64, state: &JointState, dt_s: f64) -> Result<ServoStep, Fault> {
+        let believed = self
+            .arm
+            .surface_point(&state.position_rad)
+            .map_err(|e| kinematic_fault(&e, now_s))?;
+        let speed = self
+            .believed_speed(state)
+            .map_err(|e| kinematic_fault(&e, now_s))?;
+        // Judged from the encoders through the kinematics, never from the setpoint; the
+        // first verdict of a move is kept. Until then the outer loop trims a stalled arm.
+        let arrival = self.planner.observe(believed, speed, now_s);
         let (p, v) = self
             .planner
             .setpoint(now_s)
@@ -200,18 +217,15 @@ impl Servo for CoreServo {
             .pd
             .step(&js, state, &g, dt_s)
             .map_err(|e| pd_fault(&e, now_s))?;
-        let believed = self
-            .arm
-            .surface_point(&state.position_rad)
-            .map_err(|e| kinematic_fault(&e, now_s))?;
-        let speed = self
-            .believed_speed(state)
-            .map_err(|e| kinematic_fault(&e, now_s))?;
         Ok(ServoStep {
             torques,
             setpoint: SurfacePoint::new(p.x, p.z),
             setpoint_rad: js.position_rad,
-            settled: self.planner.settled(believed, speed, now_s),
+            settled: arrival == Arrival::Arrived,
+            shortfall: match arrival {
+                Arrival::StoppedShort(s) => Some(s),
+                Arrival::Moving | Arrival::Arrived => None,
+            },
         })
     }
 }

@@ -5,6 +5,7 @@
 use std::sync::Arc;
 
 use control::frames::SurfacePoint;
+use control::motion::{Shortfall, ShortfallReason};
 use control::types::{JOINTS, Joints, TactileFrame};
 
 use crate::rt::fault::{Fault, FaultKind};
@@ -18,7 +19,8 @@ pub enum ControlCommand {
     Enable { seq: u64 },
     /// Remove power.
     Disable { seq: u64 },
-    /// Come to rest at the current setpoint.
+    /// Come to rest at the current setpoint; after a move that stopped short of its target,
+    /// where the arm is (never where it could not get).
     Hold { seq: u64 },
     /// A straight move of the sensor centre, tissue frame.
     MoveTo {
@@ -116,8 +118,10 @@ pub struct StampedFrame {
     pub frame: TactileFrame,
     /// Believed sensor centre (encoders + fixed-pivot model), tissue frame.
     pub sensor: SurfacePoint,
-    /// The motion with this sequence number has settled.
+    /// The motion with this sequence number has arrived (encoders through the kinematics).
     pub settled: bool,
+    /// ... or has stopped short of its target, by how much and why.
+    pub shortfall: Option<Shortfall>,
     pub motion_seq: u64,
     /// Sum of the element forces, N.
     pub contact_n: f64,
@@ -154,7 +158,11 @@ pub struct ControlStatus {
     pub sensor: SurfacePoint,
     pub setpoint: SurfacePoint,
     pub depth_m: f64,
+    /// The current motion has arrived: the believed sensor centre (encoders through the
+    /// kinematics) is within the tolerance of its target and at rest.
     pub settled: bool,
+    /// The current motion's settling time ran out short of its target.
+    pub shortfall: Option<Shortfall>,
     pub motion_seq: u64,
     /// Newest tactile frame time and its total force.
     pub tactile_t_s: f64,
@@ -180,6 +188,7 @@ impl Default for ControlStatus {
             setpoint: SurfacePoint::new(f64::NAN, f64::NAN),
             depth_m: f64::NAN,
             settled: true,
+            shortfall: None,
             motion_seq: 0,
             tactile_t_s: f64::NAN,
             contact_n: f64::NAN,
@@ -206,6 +215,12 @@ impl Packed for ControlStatus {
             .f64(self.setpoint.z_m)
             .f64(self.depth_m)
             .u64(u64::from(self.settled))
+            .f64(self.shortfall.map_or(f64::NAN, |s| s.distance_m))
+            .u64(match self.shortfall.map(|s| s.reason) {
+                None => 0,
+                Some(ShortfallReason::Stalled) => 1,
+                Some(ShortfallReason::NotAtRest) => 2,
+            })
             .u64(self.motion_seq)
             .f64(self.tactile_t_s)
             .f64(self.contact_n)
@@ -235,6 +250,15 @@ impl Packed for ControlStatus {
             setpoint: SurfacePoint::new(u.f64(), u.f64()),
             depth_m: u.f64(),
             settled: u.u64() != 0,
+            shortfall: {
+                let distance_m = u.f64();
+                match u.u64() {
+                    1 => Some(ShortfallReason::Stalled),
+                    2 => Some(ShortfallReason::NotAtRest),
+                    _ => None,
+                }
+                .map(|reason| Shortfall { distance_m, reason })
+            },
             motion_seq: u.u64(),
             tactile_t_s: u.f64(),
             contact_n: u.f64(),
@@ -263,6 +287,10 @@ mod tests {
             setpoint: SurfacePoint::new(0.03, 0.04),
             depth_m: 0.3,
             settled: false,
+            shortfall: Some(Shortfall {
+                distance_m: 0.0096,
+                reason: ShortfallReason::Stalled,
+            }),
             motion_seq: 17,
             tactile_t_s: 12.49,
             contact_n: 2.5,

@@ -278,6 +278,7 @@ mod tests {
             setpoint: SurfacePoint::new(0.001, 0.0),
             setpoint_rad: [0.0; 3],
             settled: true,
+            shortfall: None,
         };
         assert!(check_pose(&l, 0.0, &pose, &step).is_ok());
         step.setpoint = SurfacePoint::new(l.max_sensor_error_m * 2.0, 0.0);

@@ -25,8 +25,10 @@ pub struct ServoStep {
     pub setpoint: SurfacePoint,
     /// The joint angles the PD law is steering to.
     pub setpoint_rad: Joints,
-    /// The current motion has arrived and come to rest.
+    /// The current motion has arrived and come to rest (judged from the encoders).
     pub settled: bool,
+    /// The current motion's settling time ran out short of its target.
+    pub shortfall: Option<control::motion::Shortfall>,
 }
 
 pub trait Servo: Send {

@@ -158,6 +158,9 @@ pub struct Supervisor {
     next_seq: u64,
     /// The motion whose settling the tracker and the manual moves wait for.
     motion_seq: u64,
+    /// The last manual move (or the trial's last move) stopped short of its target: no mark
+    /// until a manual move arrives. With the motion it was judged on.
+    stopped_short: Option<(u64, control::motion::Shortfall)>,
     tracker_target: Option<SurfacePoint>,
     pending: Vec<Pending>,
     timing: Option<PeriodSummary>,
@@ -216,6 +219,7 @@ impl Supervisor {
             last_trial: None,
             next_seq: 1,
             motion_seq: 0,
+            stopped_short: None,
             tracker_target: None,
             pending: Vec::new(),
             timing: None,
@@ -515,6 +519,7 @@ impl Supervisor {
             Purpose::Estop => {}
             Purpose::ManualMove => {
                 self.motion_seq = seq;
+                self.stopped_short = None;
                 self.set_state(OpState::Moving);
             }
             Purpose::Pause => self.set_state(OpState::Paused),
@@ -730,9 +735,12 @@ impl Supervisor {
         if self.state == OpState::Moving
             && let Some(st) = self.links.status.read()
             && st.motion_seq == self.motion_seq
-            && st.settled
         {
-            self.set_state(OpState::Holding);
+            if st.settled {
+                self.set_state(OpState::Holding);
+            } else if let Some(s) = st.shortfall {
+                self.on_stopped_short(st.motion_seq, s);
+            }
         }
         if now.duration_since(self.last_state_beat) >= Duration::from_millis(250) {
             self.last_state_beat = now;

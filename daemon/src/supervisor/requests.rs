@@ -157,6 +157,24 @@ impl Supervisor {
     }
 
     pub(super) fn mark(&mut self, id: u64, to: Responder, t: f64, logged: &Value) {
+        // Marks happen only where the arm has arrived (judged from the encoders).
+        if let Some((_, s)) = self.stopped_short {
+            let why = format!(
+                "cannot mark here: {s} ({:.2} mm, more than the arrival tolerance); nothing was marked; move the arm onto the placement again (check the instrument's mass and the joints' friction)",
+                s.distance_m * 1e3
+            );
+            return self.reply_err(id, to, ErrorCode::Refused, &why);
+        }
+        if let Some(st) = self.links.status.read()
+            && !(st.settled && st.motion_seq == self.motion_seq)
+        {
+            return self.reply_err(
+                id,
+                to,
+                ErrorCode::Refused,
+                "cannot mark yet: the arm has not arrived at rest within the arrival tolerance of its target",
+            );
+        }
         if self.state == OpState::Done || self.trial.is_none() {
             if let Err(why) =
                 crate::recording::space::check_room(&self.s.recording_dir, self.s.min_free_bytes)

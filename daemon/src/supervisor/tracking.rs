@@ -18,6 +18,13 @@ impl Supervisor {
         if self.state == OpState::Moving && settled {
             self.set_state(OpState::Holding);
         }
+        if let Some(s) = f.shortfall
+            && f.motion_seq == self.motion_seq
+        {
+            // Before the tracker sees the frame: a frame from a place the arm did not reach
+            // is never a mark or a fix.
+            self.on_stopped_short(f.motion_seq, s);
+        }
         // The tracker sees every frame of its trial (it may still owe events from an
         // acquisition that just ended) except while paused: there the arm holds for the
         // operator, and `settled` would wrongly vouch for the tracker's interrupted move.
@@ -62,6 +69,48 @@ impl Supervisor {
                 }
             },
             _ => {}
+        }
+    }
+
+    /// The current motion's settling time ran out short of its target (judged from the
+    /// encoders): say so once, end a trial in progress as `short_of_target`, and hold where
+    /// the arm is. A manual move that stopped short blocks `mark` until a move arrives.
+    pub(super) fn on_stopped_short(&mut self, seq: u64, s: control::motion::Shortfall) {
+        if self.stopped_short.is_some_and(|(old, _)| old == seq) {
+            return;
+        }
+        let t = self.now_s();
+        let v = json!({"event": "motion", "kind": "stopped_short", "t_s": t,
+            "motion_seq": seq, "shortfall_m": s.distance_m, "reason": s.reason.as_str(),
+            "message": s.to_string()});
+        tracing::warn!("motion {seq}: {s}");
+        self.record(Topic::Events, t, &v);
+        self.publish(Stream::State, 0, &v, true);
+        let tracking = matches!(
+            self.state,
+            OpState::Tracking | OpState::Seeding | OpState::Paused
+        );
+        if tracking {
+            if let Some(tr) = self.tracker.as_mut() {
+                tr.stop();
+            }
+            self.end_trial(TrialEnd::ShortOfTarget);
+        }
+        // The loop holds a stopped-short motion where the arm is, not at its target.
+        let hold = self.seq();
+        self.motion_seq = hold;
+        self.tracker_target = None;
+        self.send(
+            ControlCommand::Hold { seq: hold },
+            Purpose::TrackerHold,
+            None,
+        );
+        // Remembered under the hold's number: `mark` stays refused while the arm rests here.
+        self.stopped_short = Some((hold, s));
+        if tracking {
+            self.set_state(OpState::Done);
+        } else if self.state == OpState::Moving {
+            self.set_state(OpState::Holding);
         }
     }
 

@@ -38,6 +38,9 @@ pub enum TrialEnd {
     Abandoned,
     /// The recording could not be written, so the trial could not go on.
     RecordingFailed,
+    /// The arm stopped short of a tracking target (judged from the encoders): no fix was
+    /// taken there; the arm holds where it is.
+    ShortOfTarget,
 }
 
 impl TrialEnd {
@@ -49,6 +52,7 @@ impl TrialEnd {
             TrialEnd::Shutdown => "shutdown",
             TrialEnd::Abandoned => "abandoned",
             TrialEnd::RecordingFailed => "recording_failed",
+            TrialEnd::ShortOfTarget => "short_of_target",
         }
     }
 }

@@ -29,6 +29,8 @@ pub struct FakeArm {
     steps: u64,
     frames: Sender<TactileFrame>,
     seq: u64,
+    /// Joint 0 (the sensor's x) cannot pass this: a stuck joint, a heavy instrument.
+    wall_x_m: Option<f64>,
 }
 
 impl ArmPort for FakeArm {
@@ -56,6 +58,12 @@ impl ArmPort for FakeArm {
             };
             self.q[i] += self.qd[i] * DT;
         }
+        if let Some(wall) = self.wall_x_m
+            && self.q[0] > wall
+        {
+            self.q[0] = wall;
+            self.qd[0] = 0.0;
+        }
         self.t_s += DT;
         self.steps += 1;
         if self.steps.is_multiple_of(10) {
@@ -82,6 +90,11 @@ impl TactilePort for FakeTactile {
 }
 
 pub fn backend() -> Backend {
+    backend_with_wall(None)
+}
+
+/// The double with joint 0 stopped at `wall_x_m`: moves beyond it stop short.
+pub fn backend_with_wall(wall_x_m: Option<f64>) -> Backend {
     let (tx, rx) = crossbeam_channel::bounded(1024);
     Backend {
         arm: Box::new(FakeArm {
@@ -92,6 +105,7 @@ pub fn backend() -> Backend {
             steps: 0,
             frames: tx,
             seq: 0,
+            wall_x_m,
         }),
         tactile: Box::new(FakeTactile(rx)),
         info: BackendInfo {
@@ -110,7 +124,12 @@ pub struct FakeServo {
     setpoint: Option<SurfacePoint>,
     target: SurfacePoint,
     speed: f64,
+    /// When the setpoint reached the target, for the settling time.
+    finished_s: Option<f64>,
 }
+
+/// As control's default `settle_timeout_s`.
+const SETTLE_TIMEOUT_S: f64 = 1.0;
 
 impl Servo for FakeServo {
     fn sensor_pose(&self, _now: f64, q: &Joints) -> Result<SensorPose, Fault> {
@@ -123,6 +142,7 @@ impl Servo for FakeServo {
         let p = SurfacePoint::new(s.position_rad[0], s.position_rad[1]);
         self.setpoint = Some(p);
         self.target = p;
+        self.finished_s = None;
         Ok(())
     }
     fn move_to(&mut self, _now: f64, target: SurfacePoint, speed: f64) -> Result<(), Refusal> {
@@ -131,12 +151,14 @@ impl Servo for FakeServo {
         }
         self.target = target;
         self.speed = speed;
+        self.finished_s = None;
         Ok(())
     }
     fn hold(&mut self, _now: f64) {
         if let Some(p) = self.setpoint {
             self.target = p;
         }
+        self.finished_s = None;
     }
     fn step(&mut self, now: f64, s: &JointState, dt: f64) -> Result<ServoStep, Fault> {
         let sp = self
@@ -162,11 +184,22 @@ impl Servo for FakeServo {
             ],
         };
         let here = SurfacePoint::new(s.position_rad[0], s.position_rad[1]);
+        let done = next == self.target;
+        if done && self.finished_s.is_none() {
+            self.finished_s = Some(now);
+        }
+        let to_go = here.distance_to(&self.target);
+        let settled = done && to_go < 5e-4;
+        let timed_out = self.finished_s.is_some_and(|t| now - t >= SETTLE_TIMEOUT_S);
         Ok(ServoStep {
             torques,
             setpoint: next,
             setpoint_rad: [next.x_m, next.z_m, 0.2],
-            settled: next == self.target && here.distance_to(&self.target) < 5e-4,
+            settled,
+            shortfall: (timed_out && !settled).then_some(control::motion::Shortfall {
+                distance_m: to_go,
+                reason: control::motion::ShortfallReason::Stalled,
+            }),
         })
     }
 }
