@@ -385,4 +385,34 @@ mod tests {
             .arg(&disk)
             .status();
     }
+
+    /// A trial file written by the recorder as it was before issue 14 (uncompressed chunks,
+    /// daemon-clock times, hand-written schemas): still read whole, and still recovered when
+    /// cut short.
+    #[test]
+    fn a_recording_from_before_issue_14_still_opens_and_recovers() {
+        let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/v0-trial.mcap");
+        let bytes = std::fs::read(&fixture).expect("fixture");
+        let back = read_bytes(&bytes).expect("read");
+        assert!(back.complete);
+        assert_eq!(back.on(Topic::Tactile).count(), 20);
+        assert_eq!(back.on(Topic::Joints).count(), 4);
+        assert_eq!(back.on(Topic::Truth).count(), 4);
+        assert_eq!(back.on(Topic::Events).count(), 3);
+        let located = back
+            .on(Topic::Events)
+            .find(|m| m.json["kind"] == "located")
+            .expect("located");
+        assert_eq!(located.json["point"]["element"], 4.6);
+        // Cut inside its data: what was flushed is recovered into a complete file.
+        let dir = tempfile::tempdir().expect("tmp");
+        let p = dir.path().join("old.mcap");
+        let cut = bytes.len() * 2 / 3;
+        std::fs::write(&p, &bytes[..cut]).expect("write");
+        let n = recover_in_place(&p).expect("recover").expect("was cut");
+        assert!(n >= 10, "{n}");
+        let again = read(&p).expect("read");
+        assert!(again.complete);
+        assert_eq!(again.messages.len() as u64, n);
+    }
 }
