@@ -325,6 +325,7 @@ impl Daemon {
                 "tracker": c.tracker.name,
             }),
             min_free_bytes: c.recording.min_free_bytes,
+            trial_metadata: crate::recording::provenance::static_records(&loaded),
         };
         let sup = Supervisor::new(
             settings,

@@ -11,20 +11,42 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use crate::recording::provenance::MetadataRecord;
 use crate::recording::topics::Topic;
+use crate::recording::trial_file::{mcap_err, open_writer};
 
 /// One message read back.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadMessage {
     pub topic: String,
     pub log_time_ns: u64,
+    pub publish_time_ns: u64,
+    pub sequence: u32,
+    /// The channel's id in the file read ([`ReadBack::channels`]).
+    pub channel_id: u16,
+    /// The message as written.
+    pub data: Vec<u8>,
+    /// The message parsed as JSON (`null` if it is not JSON).
     pub json: serde_json::Value,
+}
+
+/// A channel as the file declares it, with its schema.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelInfo {
+    pub topic: String,
+    pub message_encoding: String,
+    pub metadata: BTreeMap<String, String>,
+    /// Name, encoding and bytes of the schema; `None` for a schemaless channel.
+    pub schema: Option<(String, String, Vec<u8>)>,
 }
 
 /// What a read found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadBack {
     pub messages: Vec<ReadMessage>,
+    pub channels: BTreeMap<u16, ChannelInfo>,
+    /// The file's metadata records, in file order.
+    pub metadata: Vec<MetadataRecord>,
     /// The file has its summary, footer and closing magic.
     pub complete: bool,
     /// Why reading stopped early, for a truncated file.
@@ -36,6 +58,14 @@ impl ReadBack {
         self.messages
             .iter()
             .filter(move |m| m.topic == topic.name())
+    }
+
+    /// The first metadata record called `name`.
+    pub fn metadata_named(&self, name: &str) -> Option<&BTreeMap<String, String>> {
+        self.metadata
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, m)| m)
     }
 }
 
@@ -86,14 +116,29 @@ fn read_bytes_unguarded(bytes: &[u8]) -> Result<ReadBack, String> {
         mcap::MessageStream::new_with_options(bytes, mcap::read::Options::IgnoreEndMagic.into())
             .map_err(|e| e.to_string())?;
     let mut messages = Vec::new();
+    let mut channels = BTreeMap::new();
     let mut stopped_at = None;
     for m in stream {
         match m {
             Ok(m) => {
                 let json = serde_json::from_slice(&m.data).unwrap_or(serde_json::Value::Null);
+                channels.entry(m.channel.id).or_insert_with(|| ChannelInfo {
+                    topic: m.channel.topic.clone(),
+                    message_encoding: m.channel.message_encoding.clone(),
+                    metadata: m.channel.metadata.clone(),
+                    schema: m
+                        .channel
+                        .schema
+                        .as_ref()
+                        .map(|s| (s.name.clone(), s.encoding.clone(), s.data.to_vec())),
+                });
                 messages.push(ReadMessage {
                     topic: m.channel.topic.clone(),
                     log_time_ns: m.log_time,
+                    publish_time_ns: m.publish_time,
+                    sequence: m.sequence,
+                    channel_id: m.channel.id,
+                    data: m.data.into_owned(),
                     json,
                 });
             }
@@ -111,9 +156,30 @@ fn read_bytes_unguarded(bytes: &[u8]) -> Result<ReadBack, String> {
     }
     Ok(ReadBack {
         messages,
+        channels,
+        metadata: read_metadata(bytes),
         complete,
         stopped_at,
     })
+}
+
+/// Metadata records, in order, up to the first record that does not parse.
+fn read_metadata(bytes: &[u8]) -> Vec<MetadataRecord> {
+    let Ok(records) = mcap::read::LinearReader::new_with_options(
+        bytes,
+        mcap::read::Options::IgnoreEndMagic.into(),
+    ) else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for r in records {
+        match r {
+            Ok(mcap::records::Record::Metadata(m)) => out.push((m.name, m.metadata)),
+            Ok(_) => {}
+            Err(_) => break,
+        }
+    }
+    out
 }
 
 /// Rewrite a cut-short recording as a complete one. The rewritten file is written first as
@@ -163,21 +229,61 @@ pub fn recover_in_place(path: &Path) -> Result<Option<u64>, ReadError> {
     Ok(Some(n))
 }
 
+/// Copy what was read into a new, complete file: the same channels and schemas, the same
+/// metadata (plus a `recovery` record), every message with its own times.
 fn write_recovered(staging: &Path, original: &Path, back: &ReadBack) -> std::io::Result<u64> {
-    let mut meta = BTreeMap::new();
-    meta.insert("recovered_from".to_string(), original.display().to_string());
+    let file = crate::private_fs::create_new(staging)?;
+    let sync_handle = file.try_clone()?;
+    let mut w = open_writer(file)?;
+    let mut recovery = BTreeMap::new();
+    recovery.insert("recovered_from".to_string(), original.display().to_string());
     if let Some(why) = &back.stopped_at {
-        meta.insert("stopped_at".to_string(), why.clone());
+        recovery.insert("stopped_at".to_string(), why.clone());
     }
-    let mut out = crate::recording::trial_file::TrialFile::create(staging, &meta)?;
+    for (name, map) in back
+        .metadata
+        .iter()
+        .chain(std::iter::once(&("recovery".to_string(), recovery)))
+    {
+        w.write_metadata(&mcap::records::Metadata {
+            name: name.clone(),
+            metadata: map.clone(),
+        })
+        .map_err(mcap_err)?;
+    }
+    let mut ids = BTreeMap::new();
+    for (&id, c) in &back.channels {
+        let schema_id = match &c.schema {
+            Some((name, encoding, data)) => w.add_schema(name, encoding, data).map_err(mcap_err)?,
+            None => 0,
+        };
+        let new = w
+            .add_channel(schema_id, &c.topic, &c.message_encoding, &c.metadata)
+            .map_err(mcap_err)?;
+        ids.insert(id, new);
+    }
+    let mut n = 0u64;
     for m in &back.messages {
-        let Some(topic) = Topic::from_name(&m.topic) else {
+        let Some(&channel_id) = ids.get(&m.channel_id) else {
             continue;
         };
-        let data = serde_json::to_vec(&m.json).map_err(std::io::Error::other)?;
-        out.write(topic, m.log_time_ns as f64 * 1e-9, &data)?;
+        w.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id,
+                sequence: m.sequence,
+                log_time: m.log_time_ns,
+                publish_time: m.publish_time_ns,
+            },
+            &m.data,
+        )
+        .map_err(mcap_err)?;
+        n += 1;
     }
-    out.finish()
+    w.finish().map_err(mcap_err)?;
+    let mut sink = w.into_inner();
+    std::io::Write::flush(&mut sink)?;
+    sync_handle.sync_all()?;
+    Ok(n)
 }
 
 /// Hard-link `path` to `NAME.truncated.mcap` or the first free `NAME.truncated-N.mcap`.
@@ -223,7 +329,7 @@ mod tests {
     use crate::recording::trial_file::TrialFile;
 
     fn write_trial(path: &Path, n: usize, finish: bool) -> u64 {
-        let mut f = TrialFile::create(path, &BTreeMap::new()).expect("create");
+        let mut f = TrialFile::create(path, &[], 0).expect("create");
         for i in 0..n {
             let body =
                 serde_json::json!({"t_s": i as f64 * 0.01, "seq": i, "force_n": vec![0.0; 10]});
