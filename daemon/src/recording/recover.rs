@@ -110,8 +110,88 @@ pub fn read_bytes(bytes: &[u8]) -> Result<ReadBack, String> {
     }
 }
 
+/// The largest uncompressed chunk believed. Trial files close chunks at 8 MiB.
+const MAX_CHUNK_UNCOMPRESSED: u64 = 256 * 1024 * 1024;
+
+/// The mcap crate allocates whatever length a record inside a compressed chunk declares
+/// before reading it, so one corrupt length near `u64::MAX` aborts the process (an
+/// allocation failure, which no `catch_unwind` stops). This walks the records (opcode u8,
+/// length u64, body) and the records inside each chunk first, and returns the offset of the
+/// first chunk whose sizes cannot be right, with why; reading then ends before it. Other
+/// framing errors are left to the parser, which reports them.
+fn implausible_chunk(bytes: &[u8]) -> Option<(usize, String)> {
+    const CHUNK: u8 = 0x06;
+    let mut at = mcap::MAGIC.len();
+    while let (Some(&op), Some(len)) = (bytes.get(at), u64_at(bytes, at + 1)) {
+        let body = at + 9;
+        let end = usize::try_from(len)
+            .ok()
+            .and_then(|l| body.checked_add(l))?;
+        let record = bytes.get(body..end)?;
+        if op == CHUNK
+            && let Err(why) = check_chunk(record)
+        {
+            return Some((at, format!("corrupt chunk at byte {at}: {why}")));
+        }
+        at = end;
+    }
+    None
+}
+
+fn u64_at(bytes: &[u8], at: usize) -> Option<u64> {
+    let b = bytes.get(at..at.checked_add(8)?)?;
+    Some(u64::from_le_bytes(b.try_into().ok()?))
+}
+
+/// A chunk body: start time u64, end time u64, uncompressed size u64, crc u32, compression
+/// (u32 length + name), records (u64 length + bytes).
+fn check_chunk(body: &[u8]) -> Result<(), String> {
+    let short = || "cut short".to_string();
+    let size = u64_at(body, 16).ok_or_else(short)?;
+    if size > MAX_CHUNK_UNCOMPRESSED {
+        return Err(format!("declares {size} uncompressed bytes"));
+    }
+    let name_len = body
+        .get(28..32)
+        .and_then(|b| b.try_into().ok())
+        .map(u32::from_le_bytes)
+        .ok_or_else(short)? as usize;
+    let name = body.get(32..32 + name_len).ok_or_else(short)?;
+    let records_len = u64_at(body, 32 + name_len).ok_or_else(short)?;
+    let start = 40 + name_len;
+    let records = usize::try_from(records_len)
+        .ok()
+        .and_then(|l| body.get(start..start.checked_add(l)?))
+        .ok_or_else(short)?;
+    let plain: std::borrow::Cow<[u8]> = match name {
+        b"" => records.into(),
+        b"zstd" => zstd::bulk::decompress(records, size as usize)
+            .map_err(|e| format!("zstd: {e}"))?
+            .into(),
+        // Others are the parser's to refuse.
+        _ => return Ok(()),
+    };
+    let mut at = 0usize;
+    while at < plain.len() {
+        let len = u64_at(&plain, at + 1).ok_or_else(short)?;
+        let left = (plain.len() - at).saturating_sub(9) as u64;
+        if len > left {
+            return Err(format!(
+                "a record inside declares {len} bytes, {left} are left"
+            ));
+        }
+        at += 9 + len as usize;
+    }
+    Ok(())
+}
+
 fn read_bytes_unguarded(bytes: &[u8]) -> Result<ReadBack, String> {
     let complete = mcap::read::footer(bytes).is_ok();
+    let (bytes, cut) = match implausible_chunk(bytes) {
+        Some((at, why)) => (&bytes[..at], Some(why)),
+        None => (bytes, None),
+    };
+    let complete = complete && cut.is_none();
     let stream =
         mcap::MessageStream::new_with_options(bytes, mcap::read::Options::IgnoreEndMagic.into())
             .map_err(|e| e.to_string())?;
@@ -147,6 +227,9 @@ fn read_bytes_unguarded(bytes: &[u8]) -> Result<ReadBack, String> {
                 break;
             }
         }
+    }
+    if stopped_at.is_none() {
+        stopped_at = cut;
     }
     if messages.is_empty()
         && let Some(why) = &stopped_at
