@@ -8,6 +8,7 @@ pub mod naming;
 pub mod provenance;
 pub mod recorder;
 pub mod recover;
+pub mod replay;
 pub mod space;
 pub mod startup;
 pub mod topics;
