@@ -604,4 +604,30 @@ mod tests {
         assert!(again.complete);
         assert_eq!(again.messages.len() as u64, n);
     }
+
+    #[test]
+    fn recovery_keeps_channels_schemas_and_metadata_and_says_so() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let p = dir.path().join("t.mcap");
+        let mut cfg = BTreeMap::new();
+        cfg.insert("json".to_string(), "{\"version\":1}".to_string());
+        let offset = 1_795_000_000_000_000_000i128;
+        let mut f = TrialFile::create(&p, &[("config".to_string(), cfg)], offset).expect("create");
+        f.write(Topic::Log, 2.5, br#"{"message":"hello"}"#)
+            .expect("write");
+        f.flush().expect("flush");
+        std::mem::forget(f);
+        assert_eq!(recover_in_place(&p).expect("recover"), Some(1));
+        let back = read(&p).expect("read");
+        assert!(back.complete);
+        assert_eq!(
+            back.metadata_named("config").map(|m| m["json"].as_str()),
+            Some("{\"version\":1}")
+        );
+        assert!(back.metadata_named("recovery").is_some());
+        let m = &back.messages[0];
+        assert_eq!(m.log_time_ns, 1_795_000_002_500_000_000);
+        let schema = &back.channels[&m.channel_id].schema;
+        assert_eq!(schema.as_ref().map(|s| s.0.as_str()), Some("foxglove.Log"));
+    }
 }

@@ -261,3 +261,19 @@ impl TrialFile {
         Ok(self.messages)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn daemon_time_maps_onto_the_epoch_and_never_wraps() {
+        let now = std::time::UNIX_EPOCH + std::time::Duration::from_secs(1_795_253_891);
+        let offset = epoch_offset_ns(now, 12.5);
+        assert_eq!(epoch_ns(offset, 12.5), 1_795_253_891_000_000_000);
+        assert_eq!(epoch_ns(offset, 13.0), 1_795_253_891_500_000_000);
+        assert_eq!(epoch_ns(offset, f64::NAN), epoch_ns(offset, 0.0));
+        assert_eq!(epoch_ns(-5, 0.0), 0);
+        assert_eq!(epoch_ns(i128::from(u64::MAX), 1.0), u64::MAX);
+    }
+}
