@@ -326,6 +326,7 @@ impl Daemon {
             }),
             min_free_bytes: c.recording.min_free_bytes,
             trial_metadata: crate::recording::provenance::static_records(&loaded),
+            arm: c.robot.arm_model().ok(),
         };
         let sup = Supervisor::new(
             settings,

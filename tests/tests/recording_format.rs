@@ -118,6 +118,7 @@ fn a_trial_file_is_compressed_epoch_stamped_self_describing_and_complete() {
     assert_eq!(schema_of["/sensor/believed"], "foxglove.PoseInFrame");
     assert_eq!(schema_of["/sensor/true"], "foxglove.PoseInFrame");
     assert_eq!(schema_of["/artery"], "foxglove.SceneUpdate");
+    assert_eq!(schema_of["/tf"], "foxglove.FrameTransforms");
 
     // Times are Unix-epoch nanoseconds within the test's wall-clock span.
     let mut by_topic: BTreeMap<String, Vec<Value>> = BTreeMap::new();
@@ -143,8 +144,37 @@ fn a_trial_file_is_compressed_epoch_stamped_self_describing_and_complete() {
         "/sensor/believed",
         "/log",
         "/artery",
+        "/tf",
     ] {
         assert!(by_topic.contains_key(topic), "nothing on {topic}");
+    }
+
+    // The frame tree: base -> tissue, gimbal, pivot; tissue -> sensor, where the believed
+    // pose (recorded from the same sample) has the sensor.
+    let poses = &by_topic["/sensor/believed"];
+    let trees = &by_topic["/tf"];
+    assert_eq!(trees.len(), poses.len());
+    for (tree, pose) in trees.iter().zip(poses).step_by(97) {
+        let frames: BTreeMap<String, &Value> = tree["transforms"]
+            .as_array()
+            .expect("transforms")
+            .iter()
+            .map(|t| (t["child_frame_id"].as_str().unwrap_or("").to_string(), t))
+            .collect();
+        for (child, parent) in [
+            ("tissue", "base"),
+            ("gimbal", "base"),
+            ("pivot", "base"),
+            ("sensor", "tissue"),
+        ] {
+            assert_eq!(frames[child]["parent_frame_id"], parent, "{tree}");
+        }
+        assert_eq!(frames["sensor"]["timestamp"], pose["timestamp"]);
+        for axis in ["x", "z"] {
+            let a = frames["sensor"]["translation"][axis].as_f64().expect("t");
+            let b = pose["pose"]["position"][axis].as_f64().expect("p");
+            assert!((a - b).abs() < 1e-12, "{axis}: tf {a} pose {b}");
+        }
     }
 
     // Every acknowledged request is there with its structured arguments and the client's

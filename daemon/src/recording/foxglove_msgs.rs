@@ -1,5 +1,5 @@
 //! Foxglove's well-known message schemas (foxglove.Log, foxglove.PoseInFrame,
-//! foxglove.SceneUpdate), JSON-encoded, so that Foxglove's and Lichtblick's log, pose and 3D
+//! foxglove.FrameTransforms, foxglove.SceneUpdate), JSON-encoded, so that Foxglove's and Lichtblick's log, pose and 3D
 //! panels show a recording without a plugin. Written here as plain serde types (field names
 //! and meanings as in Foxglove's published schemas) because only these few are needed and
 //! the `foxglove` SDK crate encodes them as protobuf, not as the JSON the rest of a trial
@@ -93,6 +93,22 @@ impl Pose {
             orientation: Quaternion::IDENTITY,
         }
     }
+}
+
+/// foxglove.FrameTransform: `child_frame_id` as seen from `parent_frame_id`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FrameTransform {
+    pub timestamp: Time,
+    pub parent_frame_id: String,
+    pub child_frame_id: String,
+    pub translation: Vector3,
+    pub rotation: Quaternion,
+}
+
+/// foxglove.FrameTransforms: several transforms at once.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FrameTransforms {
+    pub transforms: Vec<FrameTransform>,
 }
 
 /// foxglove.PoseInFrame.

@@ -29,13 +29,16 @@ pub enum Topic {
     SensorTrue,
     /// The artery: located points and, in sim, the true path (foxglove.SceneUpdate).
     Artery,
+    /// The arm as a frame tree from its encoders: base -> tissue, gimbal, pivot; tissue ->
+    /// sensor (foxglove.FrameTransforms), every `joint_decimation` cycles.
+    Transforms,
 }
 
 /// The frame every pose and scene entity is given in.
 pub const TISSUE_FRAME: &str = "tissue";
 
 impl Topic {
-    pub const ALL: [Topic; 8] = [
+    pub const ALL: [Topic; 9] = [
         Topic::Joints,
         Topic::Tactile,
         Topic::Events,
@@ -44,6 +47,7 @@ impl Topic {
         Topic::SensorBelieved,
         Topic::SensorTrue,
         Topic::Artery,
+        Topic::Transforms,
     ];
 
     pub fn name(&self) -> &'static str {
@@ -56,6 +60,7 @@ impl Topic {
             Topic::SensorBelieved => "/sensor/believed",
             Topic::SensorTrue => "/sensor/true",
             Topic::Artery => "/artery",
+            Topic::Transforms => "/tf",
         }
     }
 
@@ -68,6 +73,7 @@ impl Topic {
             Topic::Log => "foxglove.Log",
             Topic::SensorBelieved | Topic::SensorTrue => "foxglove.PoseInFrame",
             Topic::Artery => "foxglove.SceneUpdate",
+            Topic::Transforms => "foxglove.FrameTransforms",
         }
     }
 
@@ -94,6 +100,7 @@ impl Topic {
                 schema_of::<fox::PoseInFrame>(self.schema_name())
             }
             Topic::Artery => schema_of::<fox::SceneUpdate>(self.schema_name()),
+            Topic::Transforms => schema_of::<fox::FrameTransforms>(self.schema_name()),
         }
     }
 }

@@ -87,6 +87,8 @@ pub struct SupervisorSettings {
     pub min_free_bytes: u64,
     /// Metadata records every trial file starts with (resolved config, scene, build, host).
     pub trial_metadata: Vec<MetadataRecord>,
+    /// The arm's geometry, to record its frame tree (`None`: not recorded).
+    pub arm: Option<control::kinematics::ArmModel>,
 }
 
 /// The channels the supervisor works with.
@@ -892,6 +894,7 @@ impl Supervisor {
                         status.t_s,
                         &report::joint_sample(&status, self.state),
                     );
+                    self.record_frame_tree(&status);
                     if status.sensor.is_finite() {
                         self.record_pose(
                             Topic::SensorBelieved,
@@ -908,6 +911,70 @@ impl Supervisor {
             }
             LoopSample::Frame(f) => self.on_frame(f),
         }
+    }
+
+    /// The arm as Foxglove frames under `base` (the Phantom's own frame): the tissue frame
+    /// (fixed, from the configured placement), the gimbal point from the encoders, the pivot
+    /// (fixed), and the sensor centre (a child of `tissue`, where it is computed). The 3D
+    /// panel then shows the gimbal, the pivot and the sensor on the line of the rod.
+    fn record_frame_tree(&self, status: &ControlStatus) {
+        use control::kinematics::{phantom, pivot};
+        let Some(arm) = self.s.arm.as_ref() else {
+            return;
+        };
+        let q = &status.position_rad;
+        let (Ok(gimbal), Ok(sensor)) = (
+            phantom::forward(arm.phantom(), q),
+            arm.sensor_from_joints(q),
+        ) else {
+            return;
+        };
+        let pivot = pivot::pivot_point(arm.pivot()).0;
+        let placement = arm.placement();
+        let timestamp = self.fox_time(status.t_s);
+        let v = |p: &nalgebra::Point3<f64>| fox::Vector3 {
+            x: p.x,
+            y: p.y,
+            z: p.z,
+        };
+        let half = placement.yaw_rad / 2.0;
+        let frame = |child: &str, translation: fox::Vector3, rotation: fox::Quaternion| {
+            fox::FrameTransform {
+                timestamp,
+                parent_frame_id: "base".into(),
+                child_frame_id: child.into(),
+                translation,
+                rotation,
+            }
+        };
+        // The sensor centre is computed in the tissue frame.
+        let sensor_in_tissue = fox::FrameTransform {
+            parent_frame_id: TISSUE_FRAME.into(),
+            ..frame("sensor", v(&sensor), fox::Quaternion::IDENTITY)
+        };
+        let [ox, oy, oz] = placement.origin_in_base_m;
+        let tree = fox::FrameTransforms {
+            transforms: vec![
+                frame(
+                    TISSUE_FRAME,
+                    fox::Vector3 {
+                        x: ox,
+                        y: oy,
+                        z: oz,
+                    },
+                    fox::Quaternion {
+                        x: 0.0,
+                        y: half.sin(),
+                        z: 0.0,
+                        w: half.cos(),
+                    },
+                ),
+                frame("gimbal", v(&gimbal.0), fox::Quaternion::IDENTITY),
+                frame("pivot", v(&pivot), fox::Quaternion::IDENTITY),
+                sensor_in_tissue,
+            ],
+        };
+        self.record_as(Topic::Transforms, status.t_s, &tree);
     }
 
     fn record_pose(&self, topic: Topic, t_s: f64, x_m: f64, z_m: f64) {
