@@ -325,6 +325,8 @@ impl Daemon {
                 "tracker": c.tracker.name,
             }),
             min_free_bytes: c.recording.min_free_bytes,
+            trial_metadata: crate::recording::provenance::static_records(&loaded),
+            arm: c.robot.arm_model().ok(),
         };
         let sup = Supervisor::new(
             settings,

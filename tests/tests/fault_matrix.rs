@@ -474,17 +474,40 @@ fn a_second_daemon_on_the_same_config_exits_without_touching_the_first() {
 }
 
 /// A recording whose chunk holds a record length near u64::MAX (what made the mcap reader
-/// panic): a real trial file with one record's length overwritten.
+/// panic): a trial file with an uncompressed chunk (as trial files were before issue 14, so
+/// the record can be found and overwritten) with one record's length overwritten.
 fn corrupt_recording(path: &Path) {
-    use daemon::recording::trial_file::TrialFile;
-    let mut f = TrialFile::create(path, &Default::default()).expect("create");
-    for i in 0..20 {
+    let file = std::fs::File::create(path).expect("create");
+    let mut w = mcap::WriteOptions::new()
+        .compression(None)
+        .create(std::io::BufWriter::new(file))
+        .expect("writer");
+    let schema = w
+        .add_schema(
+            Topic::Tactile.schema_name(),
+            "jsonschema",
+            Topic::Tactile.schema().as_bytes(),
+        )
+        .expect("schema");
+    let channel = w
+        .add_channel(schema, Topic::Tactile.name(), "json", &Default::default())
+        .expect("channel");
+    for i in 0..20u32 {
         let body = json!({"seq": i, "force_n": vec![0.0; 10]}).to_string();
-        f.write(Topic::Tactile, f64::from(i) * 0.01, body.as_bytes())
-            .expect("write");
+        let ns = u64::from(i) * 10_000_000;
+        w.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence: i,
+                log_time: ns,
+                publish_time: ns,
+            },
+            body.as_bytes(),
+        )
+        .expect("write");
     }
-    f.flush().expect("flush");
-    drop(f);
+    w.flush().expect("flush");
+    drop(w.into_inner());
     let mut bytes = std::fs::read(path).expect("read");
     // The first message record (opcode 0x05) inside the chunk: its length field follows.
     let at = bytes

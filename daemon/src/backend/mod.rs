@@ -48,6 +48,17 @@ pub struct Truth {
     pub sensor_z_m: f64,
 }
 
+impl Truth {
+    /// As recorded on `/truth`.
+    pub fn sample(&self) -> crate::recording::messages::TruthSample {
+        crate::recording::messages::TruthSample {
+            t_s: self.t_s,
+            sensor_x_m: self.sensor_x_m,
+            sensor_z_m: self.sensor_z_m,
+        }
+    }
+}
+
 /// What kind of backend runs, for status replies and recordings.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct BackendInfo {
@@ -93,6 +104,10 @@ pub trait PathJudge: Send {
     fn lateral_offset_m(&self, x_m: f64, z_m: f64) -> f64;
     /// Heartbeats between two instants of the simulated clock.
     fn beats_between(&self, t0_s: f64, t1_s: f64) -> f64;
+    /// The true path, sampled along its length (for the recording's scene).
+    fn path_points(&self) -> Vec<control::frames::SurfacePoint> {
+        Vec::new()
+    }
 }
 
 /// Why a backend could not be opened.

@@ -75,6 +75,9 @@ impl PathJudge for SceneJudge {
         let b1 = src.beats_started_by(t1_s.max(t0_s));
         (b1 - b0) as f64
     }
+    fn path_points(&self) -> Vec<SurfacePoint> {
+        self.path.sample(0.001)
+    }
 }
 
 pub fn open(

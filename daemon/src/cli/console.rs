@@ -101,6 +101,10 @@ pub struct TrackArgs {
     /// Length of artery to follow, m; without it, until the artery is lost.
     #[arg(long)]
     pub length_m: Option<f64>,
+    /// What this trial is (subject, specimen, condition), one line of up to 256 bytes:
+    /// kept in the trial recording's metadata and in its summary.
+    #[arg(long)]
+    pub label: Option<String>,
     /// Return once tracking has started.
     #[arg(long)]
     pub detach: bool,
@@ -197,7 +201,9 @@ fn run_inner(conn: &Conn, verb: &Verb) -> Result<ExitCode, String> {
             json!({"x_m": a.x_m, "z_m": a.z_m, "speed_m_s": a.speed_m_s}),
         ),
         Verb::Mark(_) => ("mark", json!({})),
-        Verb::Track(a) => return track(&mut c, a.length_m, a.detach, conn.json),
+        Verb::Track(a) => {
+            return track(&mut c, a.length_m, a.label.as_deref(), a.detach, conn.json);
+        }
         Verb::Pause(_) => ("pause", json!({})),
         Verb::Resume(_) => ("resume", json!({})),
         Verb::Stop(_) => ("stop", json!({})),
@@ -445,12 +451,17 @@ fn watch(c: &mut Client, streams: &[String], every: u32, raw: bool) -> Result<Ex
 fn track(
     c: &mut Client,
     length_m: Option<f64>,
+    label: Option<&str>,
     detach: bool,
     raw: bool,
 ) -> Result<ExitCode, String> {
     subscribe(c, &["state", "detections", "faults", "trials"], 1)?;
     let r = c
-        .call("track", json!({"length_m": length_m}), TIMEOUT)
+        .call(
+            "track",
+            json!({"length_m": length_m, "label": label}),
+            TIMEOUT,
+        )
         .map_err(|e| e.to_string())?;
     if detach {
         outln!("tracking (state {})", r["state"].as_str().unwrap_or("?"));
@@ -492,6 +503,9 @@ fn track(
 /// The trial summary in a few lines.
 pub fn print_summary(s: &Value) {
     outln!("trial      {}", s["trial"].as_str().unwrap_or("?"));
+    if let Some(l) = s["label"].as_str() {
+        outln!("label      {l}");
+    }
     outln!(
         "result     {} ({})",
         if s["completed"] == Value::Bool(true) {

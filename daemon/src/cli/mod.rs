@@ -6,6 +6,7 @@ pub mod console;
 mod demo;
 mod fem;
 mod recover;
+mod replay;
 mod sim;
 mod stdout;
 
@@ -38,6 +39,9 @@ enum Command {
     Fem(fem::Args),
     /// Rewrite trial recordings cut short (kill -9, crash) as complete MCAP files.
     Recover(recover::Args),
+    /// Feed a recorded trial's frames and tracker calls to a tracker offline and print the
+    /// points it locates, against those recorded (bit for bit with the recording's tracker).
+    Replay(replay::Args),
     /// Run whole trials on the simulated bench in lockstep and report the tracking error.
     Sim(sim::Args),
     /// Monte Carlo of trials over scenes and trackers on every core: speed against error.
@@ -52,6 +56,7 @@ pub fn run() -> ExitCode {
         Command::Console(verb) => console::run(&verb),
         Command::Fem(args) => fem::run(&args),
         Command::Recover(args) => recover::run(&args),
+        Command::Replay(args) => replay::run(&args),
         Command::Sim(args) => sim::run(&args),
         Command::Bench(args) => bench::run(&args),
     }

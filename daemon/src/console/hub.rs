@@ -6,9 +6,25 @@ use serde_json::Value;
 use tokio::sync::{broadcast, oneshot};
 
 use crate::console::protocol::Stream;
+use crate::recording::messages::ClientId;
 
-/// Where the answer to one request goes.
-pub type Responder = oneshot::Sender<Value>;
+/// Where the answer to one request goes, and who asked (recorded with the request).
+#[derive(Debug)]
+pub struct Responder {
+    tx: oneshot::Sender<Value>,
+    pub client: ClientId,
+}
+
+impl Responder {
+    pub fn new(tx: oneshot::Sender<Value>, client: ClientId) -> Self {
+        Self { tx, client }
+    }
+
+    /// Answer; a client that has gone away is not an error.
+    pub fn send(self, reply: Value) {
+        let _ = self.tx.send(reply);
+    }
+}
 
 /// One event line for subscribers of `stream`.
 #[derive(Debug, Clone)]

@@ -54,6 +54,8 @@ pub enum Verb {
     Mark,
     Track {
         length_m: Option<f64>,
+        /// What the trial is (subject, specimen, condition): kept in its metadata and summary.
+        label: Option<String>,
     },
     Pause,
     Resume,
@@ -96,6 +98,83 @@ impl Verb {
             Verb::Debug(_) => "debug",
         }
     }
+}
+
+impl Verb {
+    /// The verb's arguments as parsed and range-checked, as JSON (SI units), for recording.
+    pub fn args(&self) -> Map<String, Value> {
+        let mut m = Map::new();
+        let mut put = |k: &str, v: Value| {
+            m.insert(k.to_string(), v);
+        };
+        match self {
+            Verb::Jog { dx_m, dz_m } => {
+                put("dx_m", (*dx_m).into());
+                put("dz_m", (*dz_m).into());
+            }
+            Verb::Move {
+                x_m,
+                z_m,
+                speed_m_s,
+            } => {
+                put("x_m", (*x_m).into());
+                put("z_m", (*z_m).into());
+                put("speed_m_s", (*speed_m_s).into());
+            }
+            Verb::Track { length_m, label } => {
+                put("length_m", (*length_m).into());
+                put("label", label.clone().into());
+            }
+            Verb::Subscribe {
+                streams,
+                tactile_every,
+            } => {
+                put("streams", serde_json::to_value(streams).unwrap_or_default());
+                put("tactile_every", (*tactile_every).into());
+            }
+            Verb::Debug(DebugAction::SilenceTactile { duration_s }) => {
+                put("action", "silence_tactile".into());
+                put("duration_s", (*duration_s).into());
+            }
+            Verb::Status
+            | Verb::Enable
+            | Verb::Disable
+            | Verb::Home
+            | Verb::Mark
+            | Verb::Pause
+            | Verb::Resume
+            | Verb::Stop
+            | Verb::Estop
+            | Verb::Reset
+            | Verb::Unsubscribe => {}
+        }
+        m
+    }
+}
+
+/// The longest trial label, bytes.
+pub const MAX_LABEL_BYTES: usize = 256;
+
+/// A label is one line of printable text: it ends up in file metadata and summaries.
+fn check_label(id: u64, label: &str) -> Result<(), RequestError> {
+    if label.len() > MAX_LABEL_BYTES {
+        return Err(err(
+            Some(id),
+            ErrorCode::OutOfRange,
+            format!(
+                "`label` is {} bytes; the limit is {MAX_LABEL_BYTES}",
+                label.len()
+            ),
+        ));
+    }
+    if let Some(c) = label.chars().find(|c| c.is_control()) {
+        return Err(err(
+            Some(id),
+            ErrorCode::BadArgument,
+            format!("`label` must be one line of text without control characters (found {c:?})"),
+        ));
+    }
+    Ok(())
 }
 
 /// Every verb the daemon knows, for error messages and the CLI.
@@ -303,7 +382,21 @@ pub fn parse_request(line: &[u8], limits: &ParseLimits) -> Result<Request, Reque
                     ),
                 ));
             }
-            Verb::Track { length_m }
+            let label = match args.obj.remove("label") {
+                None | Some(Value::Null) => None,
+                Some(Value::String(l)) => {
+                    check_label(id, &l)?;
+                    Some(l)
+                }
+                Some(other) => {
+                    return Err(err(
+                        Some(id),
+                        ErrorCode::BadArgument,
+                        format!("`label` must be a string, got {other}"),
+                    ));
+                }
+            };
+            Verb::Track { length_m, label }
         }
         "subscribe" => {
             let streams = match args.obj.remove("streams") {
@@ -493,7 +586,33 @@ mod tests {
         );
         assert_eq!(
             parse(r#"{"id":4,"verb":"track"}"#).expect("track").verb,
-            Verb::Track { length_m: None }
+            Verb::Track {
+                length_m: None,
+                label: None
+            }
+        );
+        let track = parse(r#"{"id":4,"verb":"track","length_m":0.1,"label":"pig 3, left"}"#)
+            .expect("track")
+            .verb;
+        assert_eq!(
+            track,
+            Verb::Track {
+                length_m: Some(0.1),
+                label: Some("pig 3, left".into())
+            }
+        );
+        assert_eq!(
+            serde_json::Value::Object(track.args()),
+            serde_json::json!({"length_m": 0.1, "label": "pig 3, left"})
+        );
+        assert_eq!(
+            serde_json::Value::Object(
+                parse(r#"{"id":3,"verb":"move","x_m":0.01,"z_m":-0.002}"#)
+                    .expect("move")
+                    .verb
+                    .args()
+            ),
+            serde_json::json!({"x_m": 0.01, "z_m": -0.002, "speed_m_s": null})
         );
         assert_eq!(
             parse(r#"{"id":5,"verb":"subscribe","streams":["tactile"],"tactile_every":10}"#)
@@ -557,6 +676,19 @@ mod tests {
         }
         let e = parse_request(&[0xff, 0xfe], &LIMITS).expect_err("utf8");
         assert_eq!(e.code, ErrorCode::Malformed);
+        let e = parse(r#"{"id":1,"verb":"track","label":3}"#).expect_err("label type");
+        assert_eq!(e.code, ErrorCode::BadArgument);
+        let e = parse(r#"{"id":1,"verb":"track","label":"a\nb"}"#).expect_err("newline");
+        assert!(
+            e.code == ErrorCode::BadArgument && e.reason.contains("label"),
+            "{e:?}"
+        );
+        let long = format!(r#"{{"id":1,"verb":"track","label":"{}"}}"#, "x".repeat(300));
+        let e = parse(&long).expect_err("long");
+        assert!(
+            e.code == ErrorCode::OutOfRange && e.reason.contains("256"),
+            "{e:?}"
+        );
         let e = parse(r#"{"id":1,"verb":"track","length_m":-1}"#).expect_err("neg");
         assert_eq!(e.code, ErrorCode::OutOfRange);
         let e = parse(r#"{"id":1,"verb":"move","x_m":1e999,"z_m":0}"#).expect_err("inf");

@@ -18,10 +18,11 @@ use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::net::{UnixListener, UnixStream};
 use tokio::sync::{mpsc, oneshot, watch};
 
-use crate::console::hub::StreamHub;
+use crate::console::hub::{Responder, StreamHub};
 use crate::console::protocol::{
     ErrorCode, ParseLimits, Stream, Verb, error_reply, hello, ok_reply, parse_request,
 };
+use crate::recording::messages::ClientId;
 use crate::supervisor::{SupervisorInput, state_from_code};
 
 /// What the server needs from config and the rest of the daemon.
@@ -194,6 +195,14 @@ async fn client(stream: UnixStream, s: &ServerSettings, links: ServerLinks, slot
         refuse(stream, &why).await;
         return;
     }
+    let client_id = stream
+        .peer_cred()
+        .map(|c| ClientId {
+            uid: c.uid(),
+            gid: c.gid(),
+            pid: c.pid().unwrap_or(0),
+        })
+        .unwrap_or_default();
     let (read, mut write) = stream.into_split();
     let (out_tx, mut out_rx) = mpsc::channel::<String>(256);
     let (sub_tx, mut sub_rx) = watch::channel(Subscription::default());
@@ -344,7 +353,15 @@ async fn client(stream: UnixStream, s: &ServerSettings, links: ServerLinks, slot
                 let _ = sub_tx.send(Subscription::default());
                 ok_reply(req.id, json!({}))
             }
-            _ => ask(&links.supervisor, req.id, req.verb, s.reply_timeout).await,
+            _ => {
+                ask(
+                    &links.supervisor,
+                    (req.id, client_id),
+                    req.verb,
+                    s.reply_timeout,
+                )
+                .await
+            }
         };
         send(&out_tx, reply).await;
     }
@@ -356,13 +373,18 @@ async fn send(out: &mpsc::Sender<String>, v: Value) {
     let _ = out.send(v.to_string()).await;
 }
 
-async fn ask(sup: &Sender<SupervisorInput>, id: u64, verb: Verb, timeout: Duration) -> Value {
+async fn ask(
+    sup: &Sender<SupervisorInput>,
+    (id, client): (u64, ClientId),
+    verb: Verb,
+    timeout: Duration,
+) -> Value {
     let (tx, rx) = oneshot::channel();
     if sup
         .try_send(SupervisorInput::Request {
             id,
             verb,
-            reply: tx,
+            reply: Responder::new(tx, client),
         })
         .is_err()
     {

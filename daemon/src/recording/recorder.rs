@@ -12,7 +12,6 @@
 //! `recording_failed` error naming the file and the OS error, and durable events for it are
 //! withheld (counted in the log) rather than published as if recorded.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -22,6 +21,7 @@ use serde_json::Value;
 
 use crate::console::hub::{Responder, StreamEvent, StreamHub};
 use crate::console::protocol::{ErrorCode, error_reply};
+use crate::recording::provenance::MetadataRecord;
 use crate::recording::topics::Topic;
 use crate::recording::trial_file::TrialFile;
 
@@ -29,8 +29,13 @@ pub enum RecorderMsg {
     /// Start a trial file `<dir>/<id>.mcap`.
     Open {
         id: String,
-        metadata: BTreeMap<String, String>,
+        /// Named metadata records written at the start of the file.
+        metadata: Vec<MetadataRecord>,
+        /// Daemon time `t_s` is Unix time `epoch_offset_ns + t_s * 1e9` ns in this file.
+        epoch_offset_ns: i128,
     },
+    /// A metadata record for the open trial (a label given when tracking starts).
+    Metadata { record: MetadataRecord },
     /// A record for the open trial (dropped when none is open).
     Write {
         topic: Topic,
@@ -61,6 +66,7 @@ impl std::fmt::Debug for RecorderMsg {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let name = match self {
             RecorderMsg::Open { .. } => "Open",
+            RecorderMsg::Metadata { .. } => "Metadata",
             RecorderMsg::Write { .. } => "Write",
             RecorderMsg::Publish { .. } => "Publish",
             RecorderMsg::Reply { .. } => "Reply",
@@ -158,7 +164,18 @@ impl Recorder {
 
     fn handle(&mut self, msg: RecorderMsg) {
         match msg {
-            RecorderMsg::Open { id, metadata } => self.open(id, metadata),
+            RecorderMsg::Open {
+                id,
+                metadata,
+                epoch_offset_ns,
+            } => self.open(id, &metadata, epoch_offset_ns),
+            RecorderMsg::Metadata { record } => {
+                if let Some(f) = self.file.as_mut()
+                    && let Err(e) = f.write_metadata(&record)
+                {
+                    self.fail(&e);
+                }
+            }
             RecorderMsg::Write { topic, t_s, json } => {
                 if let Some(f) = self.file.as_mut()
                     && let Err(e) = f.write(topic, t_s, &json)
@@ -184,7 +201,7 @@ impl Recorder {
                     (Some(f), true) => not_recorded(&reply, f),
                     _ => reply,
                 };
-                let _ = to.send(reply);
+                to.send(reply);
             }
             RecorderMsg::Close { summary, then } => {
                 self.close_file(Some(summary));
@@ -196,7 +213,7 @@ impl Recorder {
         }
     }
 
-    fn open(&mut self, id: String, metadata: BTreeMap<String, String>) {
+    fn open(&mut self, id: String, metadata: &[MetadataRecord], epoch_offset_ns: i128) {
         self.close_file(None);
         let path = self.settings.dir.join(format!("{id}.mcap"));
         self.trial_id = Some(id);
@@ -206,7 +223,7 @@ impl Recorder {
                 error: e,
             });
         }
-        match TrialFile::create(&path, &metadata) {
+        match TrialFile::create(&path, metadata, epoch_offset_ns) {
             Ok(f) => {
                 tracing::info!("recording trial to {}", path.display());
                 self.file = Some(f);

@@ -11,20 +11,42 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use crate::recording::provenance::MetadataRecord;
 use crate::recording::topics::Topic;
+use crate::recording::trial_file::{mcap_err, open_writer};
 
 /// One message read back.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadMessage {
     pub topic: String,
     pub log_time_ns: u64,
+    pub publish_time_ns: u64,
+    pub sequence: u32,
+    /// The channel's id in the file read ([`ReadBack::channels`]).
+    pub channel_id: u16,
+    /// The message as written.
+    pub data: Vec<u8>,
+    /// The message parsed as JSON (`null` if it is not JSON).
     pub json: serde_json::Value,
+}
+
+/// A channel as the file declares it, with its schema.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelInfo {
+    pub topic: String,
+    pub message_encoding: String,
+    pub metadata: BTreeMap<String, String>,
+    /// Name, encoding and bytes of the schema; `None` for a schemaless channel.
+    pub schema: Option<(String, String, Vec<u8>)>,
 }
 
 /// What a read found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadBack {
     pub messages: Vec<ReadMessage>,
+    pub channels: BTreeMap<u16, ChannelInfo>,
+    /// The file's metadata records, in file order.
+    pub metadata: Vec<MetadataRecord>,
     /// The file has its summary, footer and closing magic.
     pub complete: bool,
     /// Why reading stopped early, for a truncated file.
@@ -36,6 +58,14 @@ impl ReadBack {
         self.messages
             .iter()
             .filter(move |m| m.topic == topic.name())
+    }
+
+    /// The first metadata record called `name`.
+    pub fn metadata_named(&self, name: &str) -> Option<&BTreeMap<String, String>> {
+        self.metadata
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, m)| m)
     }
 }
 
@@ -80,20 +110,115 @@ pub fn read_bytes(bytes: &[u8]) -> Result<ReadBack, String> {
     }
 }
 
+/// The largest uncompressed chunk believed. Trial files close chunks at 8 MiB.
+const MAX_CHUNK_UNCOMPRESSED: u64 = 256 * 1024 * 1024;
+
+/// The mcap crate allocates whatever length a record inside a compressed chunk declares
+/// before reading it, so one corrupt length near `u64::MAX` aborts the process (an
+/// allocation failure, which no `catch_unwind` stops). This walks the records (opcode u8,
+/// length u64, body) and the records inside each chunk first, and returns the offset of the
+/// first chunk whose sizes cannot be right, with why; reading then ends before it. Other
+/// framing errors are left to the parser, which reports them.
+fn implausible_chunk(bytes: &[u8]) -> Option<(usize, String)> {
+    const CHUNK: u8 = 0x06;
+    let mut at = mcap::MAGIC.len();
+    while let (Some(&op), Some(len)) = (bytes.get(at), u64_at(bytes, at + 1)) {
+        let body = at + 9;
+        let end = usize::try_from(len)
+            .ok()
+            .and_then(|l| body.checked_add(l))?;
+        let record = bytes.get(body..end)?;
+        if op == CHUNK
+            && let Err(why) = check_chunk(record)
+        {
+            return Some((at, format!("corrupt chunk at byte {at}: {why}")));
+        }
+        at = end;
+    }
+    None
+}
+
+fn u64_at(bytes: &[u8], at: usize) -> Option<u64> {
+    let b = bytes.get(at..at.checked_add(8)?)?;
+    Some(u64::from_le_bytes(b.try_into().ok()?))
+}
+
+/// A chunk body: start time u64, end time u64, uncompressed size u64, crc u32, compression
+/// (u32 length + name), records (u64 length + bytes).
+fn check_chunk(body: &[u8]) -> Result<(), String> {
+    let short = || "cut short".to_string();
+    let size = u64_at(body, 16).ok_or_else(short)?;
+    if size > MAX_CHUNK_UNCOMPRESSED {
+        return Err(format!("declares {size} uncompressed bytes"));
+    }
+    let name_len = body
+        .get(28..32)
+        .and_then(|b| b.try_into().ok())
+        .map(u32::from_le_bytes)
+        .ok_or_else(short)? as usize;
+    let name = body.get(32..32 + name_len).ok_or_else(short)?;
+    let records_len = u64_at(body, 32 + name_len).ok_or_else(short)?;
+    let start = 40 + name_len;
+    let records = usize::try_from(records_len)
+        .ok()
+        .and_then(|l| body.get(start..start.checked_add(l)?))
+        .ok_or_else(short)?;
+    let plain: std::borrow::Cow<[u8]> = match name {
+        b"" => records.into(),
+        b"zstd" => zstd::bulk::decompress(records, size as usize)
+            .map_err(|e| format!("zstd: {e}"))?
+            .into(),
+        // Others are the parser's to refuse.
+        _ => return Ok(()),
+    };
+    let mut at = 0usize;
+    while at < plain.len() {
+        let len = u64_at(&plain, at + 1).ok_or_else(short)?;
+        let left = (plain.len() - at).saturating_sub(9) as u64;
+        if len > left {
+            return Err(format!(
+                "a record inside declares {len} bytes, {left} are left"
+            ));
+        }
+        at += 9 + len as usize;
+    }
+    Ok(())
+}
+
 fn read_bytes_unguarded(bytes: &[u8]) -> Result<ReadBack, String> {
     let complete = mcap::read::footer(bytes).is_ok();
+    let (bytes, cut) = match implausible_chunk(bytes) {
+        Some((at, why)) => (&bytes[..at], Some(why)),
+        None => (bytes, None),
+    };
+    let complete = complete && cut.is_none();
     let stream =
         mcap::MessageStream::new_with_options(bytes, mcap::read::Options::IgnoreEndMagic.into())
             .map_err(|e| e.to_string())?;
     let mut messages = Vec::new();
+    let mut channels = BTreeMap::new();
     let mut stopped_at = None;
     for m in stream {
         match m {
             Ok(m) => {
                 let json = serde_json::from_slice(&m.data).unwrap_or(serde_json::Value::Null);
+                channels.entry(m.channel.id).or_insert_with(|| ChannelInfo {
+                    topic: m.channel.topic.clone(),
+                    message_encoding: m.channel.message_encoding.clone(),
+                    metadata: m.channel.metadata.clone(),
+                    schema: m
+                        .channel
+                        .schema
+                        .as_ref()
+                        .map(|s| (s.name.clone(), s.encoding.clone(), s.data.to_vec())),
+                });
                 messages.push(ReadMessage {
                     topic: m.channel.topic.clone(),
                     log_time_ns: m.log_time,
+                    publish_time_ns: m.publish_time,
+                    sequence: m.sequence,
+                    channel_id: m.channel.id,
+                    data: m.data.into_owned(),
                     json,
                 });
             }
@@ -103,6 +228,9 @@ fn read_bytes_unguarded(bytes: &[u8]) -> Result<ReadBack, String> {
             }
         }
     }
+    if stopped_at.is_none() {
+        stopped_at = cut;
+    }
     if messages.is_empty()
         && let Some(why) = &stopped_at
     {
@@ -111,9 +239,30 @@ fn read_bytes_unguarded(bytes: &[u8]) -> Result<ReadBack, String> {
     }
     Ok(ReadBack {
         messages,
+        channels,
+        metadata: read_metadata(bytes),
         complete,
         stopped_at,
     })
+}
+
+/// Metadata records, in order, up to the first record that does not parse.
+fn read_metadata(bytes: &[u8]) -> Vec<MetadataRecord> {
+    let Ok(records) = mcap::read::LinearReader::new_with_options(
+        bytes,
+        mcap::read::Options::IgnoreEndMagic.into(),
+    ) else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for r in records {
+        match r {
+            Ok(mcap::records::Record::Metadata(m)) => out.push((m.name, m.metadata)),
+            Ok(_) => {}
+            Err(_) => break,
+        }
+    }
+    out
 }
 
 /// Rewrite a cut-short recording as a complete one. The rewritten file is written first as
@@ -163,21 +312,61 @@ pub fn recover_in_place(path: &Path) -> Result<Option<u64>, ReadError> {
     Ok(Some(n))
 }
 
+/// Copy what was read into a new, complete file: the same channels and schemas, the same
+/// metadata (plus a `recovery` record), every message with its own times.
 fn write_recovered(staging: &Path, original: &Path, back: &ReadBack) -> std::io::Result<u64> {
-    let mut meta = BTreeMap::new();
-    meta.insert("recovered_from".to_string(), original.display().to_string());
+    let file = crate::private_fs::create_new(staging)?;
+    let sync_handle = file.try_clone()?;
+    let mut w = open_writer(file)?;
+    let mut recovery = BTreeMap::new();
+    recovery.insert("recovered_from".to_string(), original.display().to_string());
     if let Some(why) = &back.stopped_at {
-        meta.insert("stopped_at".to_string(), why.clone());
+        recovery.insert("stopped_at".to_string(), why.clone());
     }
-    let mut out = crate::recording::trial_file::TrialFile::create(staging, &meta)?;
+    for (name, map) in back
+        .metadata
+        .iter()
+        .chain(std::iter::once(&("recovery".to_string(), recovery)))
+    {
+        w.write_metadata(&mcap::records::Metadata {
+            name: name.clone(),
+            metadata: map.clone(),
+        })
+        .map_err(mcap_err)?;
+    }
+    let mut ids = BTreeMap::new();
+    for (&id, c) in &back.channels {
+        let schema_id = match &c.schema {
+            Some((name, encoding, data)) => w.add_schema(name, encoding, data).map_err(mcap_err)?,
+            None => 0,
+        };
+        let new = w
+            .add_channel(schema_id, &c.topic, &c.message_encoding, &c.metadata)
+            .map_err(mcap_err)?;
+        ids.insert(id, new);
+    }
+    let mut n = 0u64;
     for m in &back.messages {
-        let Some(topic) = Topic::from_name(&m.topic) else {
+        let Some(&channel_id) = ids.get(&m.channel_id) else {
             continue;
         };
-        let data = serde_json::to_vec(&m.json).map_err(std::io::Error::other)?;
-        out.write(topic, m.log_time_ns as f64 * 1e-9, &data)?;
+        w.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id,
+                sequence: m.sequence,
+                log_time: m.log_time_ns,
+                publish_time: m.publish_time_ns,
+            },
+            &m.data,
+        )
+        .map_err(mcap_err)?;
+        n += 1;
     }
-    out.finish()
+    w.finish().map_err(mcap_err)?;
+    let mut sink = w.into_inner();
+    std::io::Write::flush(&mut sink)?;
+    sync_handle.sync_all()?;
+    Ok(n)
 }
 
 /// Hard-link `path` to `NAME.truncated.mcap` or the first free `NAME.truncated-N.mcap`.
@@ -223,7 +412,7 @@ mod tests {
     use crate::recording::trial_file::TrialFile;
 
     fn write_trial(path: &Path, n: usize, finish: bool) -> u64 {
-        let mut f = TrialFile::create(path, &BTreeMap::new()).expect("create");
+        let mut f = TrialFile::create(path, &[], 0).expect("create");
         for i in 0..n {
             let body =
                 serde_json::json!({"t_s": i as f64 * 0.01, "seq": i, "force_n": vec![0.0; 10]});
@@ -384,5 +573,61 @@ mod tests {
             .arg("-l")
             .arg(&disk)
             .status();
+    }
+
+    /// A trial file written by the recorder as it was before issue 14 (uncompressed chunks,
+    /// daemon-clock times, hand-written schemas): still read whole, and still recovered when
+    /// cut short.
+    #[test]
+    fn a_recording_from_before_issue_14_still_opens_and_recovers() {
+        let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/v0-trial.mcap");
+        let bytes = std::fs::read(&fixture).expect("fixture");
+        let back = read_bytes(&bytes).expect("read");
+        assert!(back.complete);
+        assert_eq!(back.on(Topic::Tactile).count(), 20);
+        assert_eq!(back.on(Topic::Joints).count(), 4);
+        assert_eq!(back.on(Topic::Truth).count(), 4);
+        assert_eq!(back.on(Topic::Events).count(), 3);
+        let located = back
+            .on(Topic::Events)
+            .find(|m| m.json["kind"] == "located")
+            .expect("located");
+        assert_eq!(located.json["point"]["element"], 4.6);
+        // Cut inside its data: what was flushed is recovered into a complete file.
+        let dir = tempfile::tempdir().expect("tmp");
+        let p = dir.path().join("old.mcap");
+        let cut = bytes.len() * 2 / 3;
+        std::fs::write(&p, &bytes[..cut]).expect("write");
+        let n = recover_in_place(&p).expect("recover").expect("was cut");
+        assert!(n >= 10, "{n}");
+        let again = read(&p).expect("read");
+        assert!(again.complete);
+        assert_eq!(again.messages.len() as u64, n);
+    }
+
+    #[test]
+    fn recovery_keeps_channels_schemas_and_metadata_and_says_so() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let p = dir.path().join("t.mcap");
+        let mut cfg = BTreeMap::new();
+        cfg.insert("json".to_string(), "{\"version\":1}".to_string());
+        let offset = 1_795_000_000_000_000_000i128;
+        let mut f = TrialFile::create(&p, &[("config".to_string(), cfg)], offset).expect("create");
+        f.write(Topic::Log, 2.5, br#"{"message":"hello"}"#)
+            .expect("write");
+        f.flush().expect("flush");
+        std::mem::forget(f);
+        assert_eq!(recover_in_place(&p).expect("recover"), Some(1));
+        let back = read(&p).expect("read");
+        assert!(back.complete);
+        assert_eq!(
+            back.metadata_named("config").map(|m| m["json"].as_str()),
+            Some("{\"version\":1}")
+        );
+        assert!(back.metadata_named("recovery").is_some());
+        let m = &back.messages[0];
+        assert_eq!(m.log_time_ns, 1_795_000_002_500_000_000);
+        let schema = &back.channels[&m.channel_id].schema;
+        assert_eq!(schema.as_ref().map(|s| s.0.as_str()), Some("foxglove.Log"));
     }
 }

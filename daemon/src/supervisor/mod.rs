@@ -26,9 +26,13 @@ use control::tracker::{MotionCommand, TrackLimit, Tracker, TrackerEvent, Tracker
 use crate::backend::{BackendInfo, PathJudge, Truth};
 use crate::console::hub::{Responder, StreamEvent};
 use crate::console::protocol::{DebugAction, ErrorCode, Stream, Verb, error_reply, ok_reply};
+use crate::recording::foxglove_msgs::{self as fox, level};
+use crate::recording::messages::{ReplyRecord, TrackerCall, TrackerInputRecord};
 use crate::recording::naming::utc_stamp;
+use crate::recording::provenance::MetadataRecord;
 use crate::recording::recorder::{RecorderMsg, RecordingFailure};
-use crate::recording::topics::Topic;
+use crate::recording::topics::{TISSUE_FRAME, Topic};
+use crate::recording::trial_file::{epoch_ns, epoch_offset_ns};
 use crate::rt::fault::{Fault, FaultKind};
 use crate::rt::flight_recorder::FlightRecorder;
 use crate::rt::link::{
@@ -81,6 +85,10 @@ pub struct SupervisorSettings {
     pub trial_context: Value,
     /// A trial does not start with less free space than this in the recording folder, bytes.
     pub min_free_bytes: u64,
+    /// Metadata records every trial file starts with (resolved config, scene, build, host).
+    pub trial_metadata: Vec<MetadataRecord>,
+    /// The arm's geometry, to record its frame tree (`None`: not recorded).
+    pub arm: Option<control::kinematics::ArmModel>,
 }
 
 /// The channels the supervisor works with.
@@ -312,6 +320,107 @@ impl Supervisor {
         }
     }
 
+    /// Record a typed message into the open trial.
+    fn record_as<T: serde::Serialize>(&self, topic: Topic, t_s: f64, v: &T) {
+        if self.trial.is_none() {
+            return;
+        }
+        match serde_json::to_value(v) {
+            Ok(v) => self.record(topic, t_s, &v),
+            Err(e) => tracing::error!("cannot serialize a {} record: {e}", topic.name()),
+        }
+    }
+
+    /// Daemon time `t_s` as a Foxglove time on the open trial's epoch.
+    fn fox_time(&self, t_s: f64) -> fox::Time {
+        let offset = self.trial.as_ref().map(|t| t.epoch_offset_ns).unwrap_or(0);
+        fox::Time::from_ns(epoch_ns(offset, t_s))
+    }
+
+    /// A line on the trial's `/log` (foxglove.Log).
+    fn log_line(&self, t_s: f64, level: u8, message: String) {
+        if self.trial.is_none() {
+            return;
+        }
+        let line = fox::Log {
+            timestamp: self.fox_time(t_s),
+            level,
+            message,
+            name: "pulsetrackd".into(),
+            file: String::new(),
+            line: 0,
+        };
+        self.record_as(Topic::Log, t_s, &line);
+    }
+
+    /// Record a call into the trial's tracker (other than a frame), in order with the
+    /// frames, for offline replay.
+    fn record_tracker_call(&self, call: TrackerCall) {
+        let t = self.now_s();
+        self.record_as(
+            Topic::Events,
+            t,
+            &TrackerInputRecord {
+                event: "tracker_input".into(),
+                t_s: t,
+                call,
+            },
+        );
+    }
+
+    /// Tell the trial's tracker that its target cannot be reached.
+    fn tracker_target_unreachable(&mut self) {
+        if self.tracker.is_none() {
+            return;
+        }
+        self.record_tracker_call(TrackerCall::TargetUnreachable);
+        if let Some(tr) = self.tracker.as_mut() {
+            tr.target_unreachable();
+        }
+    }
+
+    /// Tell the trial's tracker to stop.
+    fn tracker_stop(&mut self) {
+        if self.tracker.is_none() {
+            return;
+        }
+        self.record_tracker_call(TrackerCall::Stop);
+        if let Some(tr) = self.tracker.as_mut() {
+            tr.stop();
+        }
+    }
+
+    /// Send a reply through the recorder, recording it (with who asked) in the open trial.
+    fn answer(&self, to: Responder, reply: Value, durable: bool) {
+        if self.trial.is_some() {
+            let t = self.now_s();
+            let record = ReplyRecord {
+                event: "reply".into(),
+                t_s: t,
+                id: reply.get("id").and_then(Value::as_u64),
+                reply: reply.as_object().cloned().unwrap_or_default(),
+                client: to.client,
+            };
+            self.record_as(Topic::Events, t, &record);
+            if reply.get("ok") != Some(&Value::Bool(true)) {
+                self.log_line(
+                    t,
+                    level::WARNING,
+                    format!(
+                        "request {} from uid {} refused: {}",
+                        record.id.map(|i| i.to_string()).unwrap_or("-".into()),
+                        to.client.uid,
+                        reply.get("reason").and_then(Value::as_str).unwrap_or("")
+                    ),
+                );
+            }
+        }
+        let _ = self
+            .links
+            .recorder
+            .send(RecorderMsg::Reply { to, reply, durable });
+    }
+
     fn publish(&self, stream: Stream, counter: u64, v: &Value, durable: bool) {
         let _ = self.links.recorder.send(RecorderMsg::Publish {
             event: StreamEvent::new(stream, counter, v),
@@ -324,11 +433,7 @@ impl Supervisor {
         if let Value::Object(o) = &mut result {
             o.insert("state".into(), Value::from(self.state.as_str()));
         }
-        let _ = self.links.recorder.send(RecorderMsg::Reply {
-            to,
-            reply: ok_reply(id, result),
-            durable,
-        });
+        self.answer(to, ok_reply(id, result), durable);
     }
 
     fn reply_err(&self, id: u64, to: Responder, code: ErrorCode, reason: &str) {
@@ -336,11 +441,7 @@ impl Supervisor {
         if let Value::Object(o) = &mut r {
             o.insert("state".into(), Value::from(self.state.as_str()));
         }
-        let _ = self.links.recorder.send(RecorderMsg::Reply {
-            to,
-            reply: r,
-            durable: false,
-        });
+        self.answer(to, r, false);
     }
 
     fn set_state(&mut self, s: OpState) {
@@ -362,6 +463,12 @@ impl Supervisor {
         });
         tracing::info!("state {} -> {}", from.as_str(), s.as_str());
         self.record(Topic::Events, t, &v);
+        let lvl = if s == OpState::Fault {
+            level::ERROR
+        } else {
+            level::INFO
+        };
+        self.log_line(t, lvl, format!("state {} -> {}", from.as_str(), s.as_str()));
         self.publish(Stream::State, 0, &v, false);
     }
 
@@ -397,22 +504,107 @@ impl Supervisor {
             utc_stamp(std::time::SystemTime::now()),
             self.next_seq
         );
-        let mut metadata = BTreeMap::new();
-        metadata.insert("trial".to_string(), id.clone());
-        metadata.insert("tracker".to_string(), tracker.name().to_string());
-        metadata.insert("backend".to_string(), self.info.kind.to_string());
-        metadata.insert("context".to_string(), self.s.trial_context.to_string());
+        let epoch_offset_ns = epoch_offset_ns(std::time::SystemTime::now(), t);
+        let mut trial_meta = BTreeMap::new();
+        trial_meta.insert("trial".to_string(), id.clone());
+        trial_meta.insert("tracker".to_string(), tracker.name().to_string());
+        trial_meta.insert("backend".to_string(), self.info.kind.to_string());
+        trial_meta.insert("context".to_string(), self.s.trial_context.to_string());
+        trial_meta.insert("started_t_s".to_string(), json!(t).to_string());
+        trial_meta.insert("epoch_offset_ns".to_string(), epoch_offset_ns.to_string());
+        trial_meta.insert(
+            "clock".to_string(),
+            "log and publish times are Unix ns = epoch_offset_ns + t_s * 1e9; t_s in each message is the daemon clock (simulated time on the sim backend)".to_string(),
+        );
+        let mut metadata = vec![("trial".to_string(), trial_meta)];
+        metadata.extend(self.s.trial_metadata.iter().cloned());
         let _ = self.links.recorder.send(RecorderMsg::Open {
             id: id.clone(),
             metadata,
+            epoch_offset_ns,
         });
-        let trial = Trial::new(id.clone(), tracker.name().to_string(), t);
+        let trial = Trial::new(id.clone(), tracker.name().to_string(), t, epoch_offset_ns);
         self.tracker = Some(tracker);
         self.trial = Some(trial);
         let v = json!({"event": "trial", "phase": "started", "t_s": t, "trial": id,
             "recording": self.s.recording_dir.join(format!("{id}.mcap"))});
         self.record(Topic::Events, t, &v);
+        self.log_line(t, level::INFO, format!("trial {id} started"));
+        self.record_true_path(t);
         self.publish(Stream::Trials, 0, &v, true);
+    }
+
+    /// The simulated artery's true course, once per trial, as a line in `/artery`.
+    fn record_true_path(&self, t: f64) {
+        let Some(points) = self.judge.as_ref().map(|j| j.path_points()) else {
+            return;
+        };
+        if points.is_empty() {
+            return;
+        }
+        let mut e = fox::SceneEntity::new(self.fox_time(t), TISSUE_FRAME, "true_path");
+        e.lines.push(fox::LinePrimitive {
+            kind: 0,
+            pose: fox::Pose::at_surface(0.0, 0.0),
+            thickness: 0.0005,
+            scale_invariant: false,
+            points: points
+                .iter()
+                .map(|p| fox::Vector3 {
+                    x: p.x_m,
+                    y: 0.0,
+                    z: p.z_m,
+                })
+                .collect(),
+            color: fox::Color {
+                r: 0.9,
+                g: 0.2,
+                b: 0.2,
+                a: 0.8,
+            },
+            colors: Vec::new(),
+            indices: Vec::new(),
+        });
+        self.record_as(
+            Topic::Artery,
+            t,
+            &fox::SceneUpdate {
+                deletions: Vec::new(),
+                entities: vec![e],
+            },
+        );
+    }
+
+    /// The located points so far, as spheres in `/artery` (the entity is replaced each time).
+    fn record_located_scene(&self, t: f64) {
+        let Some(trial) = self.trial.as_ref() else {
+            return;
+        };
+        let mut e = fox::SceneEntity::new(self.fox_time(t), TISSUE_FRAME, "located");
+        for p in &trial.located {
+            let (r, g, b) = if p.seed {
+                (0.2, 0.5, 1.0)
+            } else {
+                (0.1, 0.9, 0.3)
+            };
+            e.spheres.push(fox::SpherePrimitive {
+                pose: fox::Pose::at_surface(p.x_m, p.z_m),
+                size: fox::Vector3 {
+                    x: 0.0015,
+                    y: 0.0015,
+                    z: 0.0015,
+                },
+                color: fox::Color { r, g, b, a: 1.0 },
+            });
+        }
+        self.record_as(
+            Topic::Artery,
+            t,
+            &fox::SceneUpdate {
+                deletions: Vec::new(),
+                entities: vec![e],
+            },
+        );
     }
 
     fn end_trial(&mut self, end: TrialEnd) {
@@ -439,6 +631,21 @@ impl Supervisor {
             json: ev.to_string().into_bytes(),
         });
         tracing::info!("trial {} ended: {}", trial.id, end.as_str());
+        let line = fox::Log {
+            timestamp: fox::Time::from_ns(epoch_ns(trial.epoch_offset_ns, t)),
+            level: level::INFO,
+            message: format!("trial {} ended: {}", trial.id, end.as_str()),
+            name: "pulsetrackd".into(),
+            file: String::new(),
+            line: 0,
+        };
+        if let Ok(json) = serde_json::to_vec(&line) {
+            let _ = self.links.recorder.send(RecorderMsg::Write {
+                topic: Topic::Log,
+                t_s: t,
+                json,
+            });
+        }
         self.last_trial = Some(summary.clone());
         let _ = self.links.recorder.send(RecorderMsg::Close {
             summary,
@@ -495,9 +702,7 @@ impl Supervisor {
             match p.purpose {
                 Purpose::TrackerMove => {
                     tracing::info!("tracker target refused: {reason}");
-                    if let Some(tr) = self.tracker.as_mut() {
-                        tr.target_unreachable();
-                    }
+                    self.tracker_target_unreachable();
                 }
                 Purpose::ShutdownHold => {}
                 _ => {}
@@ -560,6 +765,7 @@ impl Supervisor {
             reason = format!("{reason}: {d}");
         }
         tracing::error!("FAULT latched: {reason}");
+        self.log_line(f.t_s, level::ERROR, format!("FAULT latched: {reason}"));
         let dump = self.dump_flight_recorder(&f);
         self.end_trial(TrialEnd::Fault);
         self.fault = Some((f, dump.clone()));
@@ -575,11 +781,7 @@ impl Supervisor {
             if let Value::Object(o) = &mut r {
                 o.insert("state".into(), Value::from("fault"));
             }
-            let _ = self.links.recorder.send(RecorderMsg::Reply {
-                to,
-                reply: r,
-                durable: false,
-            });
+            self.answer(to, r, false);
         }
         let v = json!({"event": "fault", "t_s": f.t_s, "fault": f.kind, "reason": reason,
             "axis": f.axis, "value": finite_or_null(f.value), "limit": finite_or_null(f.limit),
@@ -594,9 +796,7 @@ impl Supervisor {
             "{}: stopping the trial, holding, then latching recording_failed",
             failure.describe()
         );
-        if let Some(tr) = self.tracker.as_mut() {
-            tr.stop();
-        }
+        self.tracker_stop();
         self.end_trial(TrialEnd::RecordingFailed);
         if self.fault.is_some() || self.pending_latch.is_some() {
             return;
@@ -694,18 +894,104 @@ impl Supervisor {
             LoopSample::Joints { status, truth } => {
                 self.truth = truth;
                 if self.trial.is_some() {
-                    self.record(
+                    self.record_as(
                         Topic::Joints,
                         status.t_s,
-                        &report::joint_json(&status, self.state),
+                        &report::joint_sample(&status, self.state),
                     );
+                    self.record_frame_tree(&status);
+                    if status.sensor.is_finite() {
+                        self.record_pose(
+                            Topic::SensorBelieved,
+                            status.t_s,
+                            status.sensor.x_m,
+                            status.sensor.z_m,
+                        );
+                    }
                     if let Some(t) = truth {
-                        self.record(Topic::Truth, t.t_s, &json!(t));
+                        self.record_as(Topic::Truth, t.t_s, &t.sample());
+                        self.record_pose(Topic::SensorTrue, t.t_s, t.sensor_x_m, t.sensor_z_m);
                     }
                 }
             }
             LoopSample::Frame(f) => self.on_frame(f),
         }
+    }
+
+    /// The arm as Foxglove frames under `base` (the Phantom's own frame): the tissue frame
+    /// (fixed, from the configured placement), the gimbal point from the encoders, the pivot
+    /// (fixed), and the sensor centre (a child of `tissue`, where it is computed). The 3D
+    /// panel then shows the gimbal, the pivot and the sensor on the line of the rod.
+    fn record_frame_tree(&self, status: &ControlStatus) {
+        use control::kinematics::{phantom, pivot};
+        let Some(arm) = self.s.arm.as_ref() else {
+            return;
+        };
+        let q = &status.position_rad;
+        let (Ok(gimbal), Ok(sensor)) = (
+            phantom::forward(arm.phantom(), q),
+            arm.sensor_from_joints(q),
+        ) else {
+            return;
+        };
+        let pivot = pivot::pivot_point(arm.pivot()).0;
+        let placement = arm.placement();
+        let timestamp = self.fox_time(status.t_s);
+        let v = |p: &nalgebra::Point3<f64>| fox::Vector3 {
+            x: p.x,
+            y: p.y,
+            z: p.z,
+        };
+        let half = placement.yaw_rad / 2.0;
+        let frame = |child: &str, translation: fox::Vector3, rotation: fox::Quaternion| {
+            fox::FrameTransform {
+                timestamp,
+                parent_frame_id: "base".into(),
+                child_frame_id: child.into(),
+                translation,
+                rotation,
+            }
+        };
+        // The sensor centre is computed in the tissue frame.
+        let sensor_in_tissue = fox::FrameTransform {
+            parent_frame_id: TISSUE_FRAME.into(),
+            ..frame("sensor", v(&sensor), fox::Quaternion::IDENTITY)
+        };
+        let [ox, oy, oz] = placement.origin_in_base_m;
+        let tree = fox::FrameTransforms {
+            transforms: vec![
+                frame(
+                    TISSUE_FRAME,
+                    fox::Vector3 {
+                        x: ox,
+                        y: oy,
+                        z: oz,
+                    },
+                    fox::Quaternion {
+                        x: 0.0,
+                        y: half.sin(),
+                        z: 0.0,
+                        w: half.cos(),
+                    },
+                ),
+                frame("gimbal", v(&gimbal.0), fox::Quaternion::IDENTITY),
+                frame("pivot", v(&pivot), fox::Quaternion::IDENTITY),
+                sensor_in_tissue,
+            ],
+        };
+        self.record_as(Topic::Transforms, status.t_s, &tree);
+    }
+
+    fn record_pose(&self, topic: Topic, t_s: f64, x_m: f64, z_m: f64) {
+        self.record_as(
+            topic,
+            t_s,
+            &fox::PoseInFrame {
+                timestamp: self.fox_time(t_s),
+                frame_id: TISSUE_FRAME.into(),
+                pose: fox::Pose::at_surface(x_m, z_m),
+            },
+        );
     }
 
     fn on_tick(&mut self) {
@@ -760,11 +1046,7 @@ impl Supervisor {
         }
         tracing::info!("controlled stop: ending the trial, coming to rest, powering off");
         match self.state {
-            OpState::Tracking | OpState::Paused | OpState::Seeding => {
-                if let Some(tr) = self.tracker.as_mut() {
-                    tr.stop();
-                }
-            }
+            OpState::Tracking | OpState::Paused | OpState::Seeding => self.tracker_stop(),
             _ => {}
         }
         self.end_trial(TrialEnd::Shutdown);

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use serde_json::{Value, json};
 
 use crate::backend::BackendInfo;
+use crate::recording::messages::{JointSample, TactileSample, finite};
 use crate::rt::fault::Fault;
 use crate::rt::link::{ControlStatus, LoopMode, StampedFrame};
 use crate::rt::period_stats::PeriodSummary;
@@ -15,33 +16,36 @@ fn num(v: f64) -> Value {
     if v.is_finite() { json!(v) } else { Value::Null }
 }
 
-pub fn joint_json(s: &ControlStatus, state: OpState) -> Value {
-    json!({
-        "t_s": s.t_s,
-        "state": state.as_str(),
-        "position_rad": s.position_rad,
-        "velocity_rad_s": s.velocity_rad_s,
-        "setpoint_rad": s.setpoint_rad,
-        "torque_nm": s.torque_nm,
-        "sensor_x_m": num(s.sensor.x_m),
-        "sensor_z_m": num(s.sensor.z_m),
-        "setpoint_x_m": num(s.setpoint.x_m),
-        "setpoint_z_m": num(s.setpoint.z_m),
-        "depth_m": num(s.depth_m),
-        "contact_n": num(s.contact_n),
-    })
+pub fn joint_sample(s: &ControlStatus, state: OpState) -> JointSample {
+    JointSample {
+        t_s: s.t_s,
+        state: state.as_str().to_string(),
+        position_rad: s.position_rad,
+        velocity_rad_s: s.velocity_rad_s,
+        setpoint_rad: s.setpoint_rad,
+        torque_nm: s.torque_nm,
+        sensor_x_m: finite(s.sensor.x_m),
+        sensor_z_m: finite(s.sensor.z_m),
+        setpoint_x_m: finite(s.setpoint.x_m),
+        setpoint_z_m: finite(s.setpoint.z_m),
+        depth_m: finite(s.depth_m),
+        contact_n: finite(s.contact_n),
+    }
 }
 
-pub fn frame_json(f: &StampedFrame) -> Value {
-    json!({
-        "t_s": f.frame.t_s,
-        "seq": f.frame.seq,
-        "force_n": f.frame.force_n,
-        "sensor_x_m": num(f.sensor.x_m),
-        "sensor_z_m": num(f.sensor.z_m),
-        "settled": f.settled,
-        "contact_n": num(f.contact_n),
-    })
+/// A frame as recorded and streamed; `tracker_settled` is what the trial's tracker was told
+/// with it (`None`: not given to a tracker).
+pub fn tactile_sample(f: &StampedFrame, tracker_settled: Option<bool>) -> TactileSample {
+    TactileSample {
+        t_s: f.frame.t_s,
+        seq: f.frame.seq,
+        force_n: f.frame.force_n,
+        sensor_x_m: finite(f.sensor.x_m),
+        sensor_z_m: finite(f.sensor.z_m),
+        settled: f.settled,
+        contact_n: finite(f.contact_n),
+        tracker_settled,
+    }
 }
 
 pub fn state_beat(s: &ControlStatus, state: OpState, trial: Option<&Trial>) -> Value {

@@ -2,6 +2,7 @@
 //! operating state, with the reason, and turned into commands for the control loop.
 
 use super::*;
+use crate::recording::messages::VerbRecord;
 
 impl Supervisor {
     pub(super) fn on_request(&mut self, id: u64, verb: Verb, to: Responder) {
@@ -14,18 +15,40 @@ impl Supervisor {
             );
         }
         if let Verb::Status = verb {
-            let status = self.status_json();
-            return self.reply_ok(id, to, status, false);
+            // Not recorded: a status changes nothing, and consoles poll it.
+            let mut status = self.status_json();
+            if let Value::Object(o) = &mut status {
+                o.insert("state".into(), Value::from(self.state.as_str()));
+            }
+            let _ = self.links.recorder.send(RecorderMsg::Reply {
+                to,
+                reply: ok_reply(id, status),
+                durable: false,
+            });
+            return;
         }
         if let Err(why) = state::admit(self.state, &verb, &self.context()) {
             return self.reply_err(id, to, ErrorCode::WrongState, &why);
         }
         let t = self.now_s();
         let verb_name = verb.name();
-        let logged = json!({"event": "verb", "t_s": t, "verb": verb_name, "id": id, "args": format!("{verb:?}")});
+        let logged = serde_json::to_value(VerbRecord {
+            event: "verb".into(),
+            t_s: t,
+            id,
+            verb: verb_name.into(),
+            args: verb.args(),
+            client: to.client,
+        })
+        .unwrap_or_default();
         // A mark that starts a trial is recorded in that trial, once it is open.
         if !matches!(verb, Verb::Mark) {
             self.record(Topic::Events, t, &logged);
+            self.log_line(
+                t,
+                level::INFO,
+                format!("{verb_name} (request {id} from uid {})", to.client.uid),
+            );
         }
         match verb {
             Verb::Status | Verb::Subscribe { .. } | Verb::Unsubscribe => {
@@ -87,7 +110,7 @@ impl Supervisor {
                 self.manual_move(id, to, target, self.s.move_speed_m_s);
             }
             Verb::Mark => self.mark(id, to, t, &logged),
-            Verb::Track { length_m } => self.track(id, to, t, length_m),
+            Verb::Track { length_m, label } => self.track(id, to, t, length_m, label),
             Verb::Pause => {
                 let seq = self.seq();
                 self.motion_seq = seq;
@@ -103,9 +126,7 @@ impl Supervisor {
             Verb::Stop => {
                 match self.state {
                     OpState::Tracking | OpState::Paused => {
-                        if let Some(tr) = self.tracker.as_mut() {
-                            tr.stop();
-                        }
+                        self.tracker_stop();
                         self.end_trial(TrialEnd::Tracker(control::tracker::EndReason::Stopped));
                     }
                     OpState::Seeding => self.end_trial(TrialEnd::Abandoned),
@@ -184,6 +205,15 @@ impl Supervisor {
             self.start_trial(t);
         }
         self.record(Topic::Events, t, logged);
+        self.log_line(
+            t,
+            level::INFO,
+            format!("mark (request {id} from uid {})", to.client.uid),
+        );
+        if self.tracker.is_none() {
+            return self.reply_err(id, to, ErrorCode::Unavailable, "no tracker could be built");
+        }
+        self.record_tracker_call(TrackerCall::Mark);
         let Some(tracker) = self.tracker.as_mut() else {
             return self.reply_err(id, to, ErrorCode::Unavailable, "no tracker could be built");
         };
@@ -196,20 +226,42 @@ impl Supervisor {
         }
     }
 
-    pub(super) fn track(&mut self, id: u64, to: Responder, t: f64, length_m: Option<f64>) {
-        let Some(tracker) = self.tracker.as_mut() else {
+    pub(super) fn track(
+        &mut self,
+        id: u64,
+        to: Responder,
+        t: f64,
+        length_m: Option<f64>,
+        label: Option<String>,
+    ) {
+        if self.tracker.is_none() {
             return self.reply_err(
                 id,
                 to,
                 ErrorCode::WrongState,
                 "no trial: mark two seed points first",
             );
+        }
+        self.record_tracker_call(TrackerCall::Start { length_m });
+        let Some(tracker) = self.tracker.as_mut() else {
+            return;
         };
         match tracker.start(TrackLimit { length_m }) {
             Ok(()) => {
                 if let Some(trial) = self.trial.as_mut() {
                     trial.track_started_t_s = Some(t);
                     trial.length_m = length_m;
+                    if label.is_some() {
+                        trial.label = label.clone();
+                    }
+                }
+                if let Some(label) = label {
+                    let mut m = BTreeMap::new();
+                    m.insert("label".to_string(), label);
+                    m.insert("t_s".to_string(), json!(t).to_string());
+                    let _ = self.links.recorder.send(RecorderMsg::Metadata {
+                        record: ("label".to_string(), m),
+                    });
                 }
                 self.tracker_target = None;
                 self.set_state(OpState::Tracking);

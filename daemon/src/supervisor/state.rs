@@ -201,10 +201,25 @@ mod tests {
         assert_eq!(accepted(&Verb::Mark, 1), vec![Holding, Done]);
         assert_eq!(accepted(&Verb::Mark, 2), vec![Done]);
         assert_eq!(
-            accepted(&Verb::Track { length_m: None }, 1),
+            accepted(
+                &Verb::Track {
+                    length_m: None,
+                    label: None
+                },
+                1
+            ),
             Vec::<OpState>::new()
         );
-        assert_eq!(accepted(&Verb::Track { length_m: None }, 2), vec![Holding]);
+        assert_eq!(
+            accepted(
+                &Verb::Track {
+                    length_m: None,
+                    label: None
+                },
+                2
+            ),
+            vec![Holding]
+        );
         assert_eq!(accepted(&Verb::Pause, 2), vec![Tracking]);
         assert_eq!(accepted(&Verb::Resume, 2), vec![Paused]);
         assert_eq!(
@@ -219,11 +234,25 @@ mod tests {
 
     #[test]
     fn refusals_say_the_verb_the_state_and_why() {
-        let r = admit(OpState::Disabled, &Verb::Track { length_m: None }, &ctx(0))
-            .expect_err("refused");
+        let r = admit(
+            OpState::Disabled,
+            &Verb::Track {
+                length_m: None,
+                label: None,
+            },
+            &ctx(0),
+        )
+        .expect_err("refused");
         assert_eq!(r, "cannot track while disabled: enable first");
-        let r =
-            admit(OpState::Holding, &Verb::Track { length_m: None }, &ctx(1)).expect_err("refused");
+        let r = admit(
+            OpState::Holding,
+            &Verb::Track {
+                length_m: None,
+                label: None,
+            },
+            &ctx(1),
+        )
+        .expect_err("refused");
         assert!(r.contains("needs 2 marked seed points; have 1"), "{r}");
         let r = admit(
             OpState::Holding,

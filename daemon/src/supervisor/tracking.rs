@@ -6,29 +6,31 @@ use super::*;
 impl Supervisor {
     pub(super) fn on_frame(&mut self, f: StampedFrame) {
         self.frames_seen += 1;
-        let v = report::frame_json(&f);
-        self.record(Topic::Tactile, f.frame.t_s, &v);
-        let mut ev = v;
+        if let Some(s) = f.shortfall
+            && f.motion_seq == self.motion_seq
+        {
+            // Before the tracker sees the frame (and before the frame is recorded as one it
+            // saw): a frame from a place the arm did not reach is never a mark or a fix.
+            self.on_stopped_short(f.motion_seq, s);
+        }
+        let settled = f.settled && f.motion_seq == self.motion_seq;
+        // The tracker sees every frame of its trial (it may still owe events from an
+        // acquisition that just ended) except while paused: there the arm holds for the
+        // operator, and `settled` would wrongly vouch for the tracker's interrupted move.
+        // The state change below (moving -> holding) cannot pause, so this holds for both.
+        let fed = self.tracker.is_some() && self.state != OpState::Paused;
+        let sample = report::tactile_sample(&f, fed.then_some(settled));
+        let mut ev = serde_json::to_value(&sample).unwrap_or_default();
+        self.record(Topic::Tactile, f.frame.t_s, &ev);
         if let Value::Object(o) = &mut ev {
             o.insert("event".into(), Value::from("tactile"));
         }
         self.publish(Stream::Tactile, f.frame.seq, &ev, false);
 
-        let settled = f.settled && f.motion_seq == self.motion_seq;
         if self.state == OpState::Moving && settled {
             self.set_state(OpState::Holding);
         }
-        if let Some(s) = f.shortfall
-            && f.motion_seq == self.motion_seq
-        {
-            // Before the tracker sees the frame: a frame from a place the arm did not reach
-            // is never a mark or a fix.
-            self.on_stopped_short(f.motion_seq, s);
-        }
-        // The tracker sees every frame of its trial (it may still owe events from an
-        // acquisition that just ended) except while paused: there the arm holds for the
-        // operator, and `settled` would wrongly vouch for the tracker's interrupted move.
-        if self.state == OpState::Paused {
+        if !fed {
             return;
         }
         let Some(tracker) = self.tracker.as_mut() else {
@@ -91,9 +93,7 @@ impl Supervisor {
             OpState::Tracking | OpState::Seeding | OpState::Paused
         );
         if tracking {
-            if let Some(tr) = self.tracker.as_mut() {
-                tr.stop();
-            }
+            self.tracker_stop();
             self.end_trial(TrialEnd::ShortOfTarget);
         }
         // The loop holds a stopped-short motion where the arm is, not at its target.
@@ -122,9 +122,7 @@ impl Supervisor {
                 target.x_m,
                 target.z_m
             );
-            if let Some(tr) = self.tracker.as_mut() {
-                tr.target_unreachable();
-            }
+            self.tracker_target_unreachable();
             return;
         }
         let seq = self.seq();
@@ -153,6 +151,17 @@ impl Supervisor {
                     .trial
                     .as_mut()
                     .map(|t| t.add_located(&p, truth, self.judge.as_deref()));
+                self.record_located_scene(p.t_s);
+                self.log_line(
+                    p.t_s,
+                    level::INFO,
+                    format!(
+                        "located x {:.2} mm z {:.2} mm{}",
+                        p.point.x_m * 1e3,
+                        p.point.z_m * 1e3,
+                        if p.seed { " (seed)" } else { "" }
+                    ),
+                );
                 (
                     json!({"event": "detection", "kind": "located", "t_s": p.t_s, "point": rec}),
                     true,
@@ -188,6 +197,11 @@ impl Supervisor {
             TrackerEvent::Finished { t_s, reason } => {
                 let v = json!({"event": "detection", "kind": "finished", "t_s": t_s, "reason": reason.as_str()});
                 self.record(Topic::Events, t_s, &v);
+                self.log_line(
+                    t_s,
+                    level::INFO,
+                    format!("tracking finished: {}", reason.as_str()),
+                );
                 self.publish(Stream::Detections, 0, &v, true);
                 self.end_trial(TrialEnd::Tracker(reason));
                 let seq = self.seq();

@@ -61,6 +61,10 @@ impl TrialEnd {
 pub struct Trial {
     pub id: String,
     pub tracker: String,
+    /// Daemon time on the Unix epoch in this trial's recording (ns offset).
+    pub epoch_offset_ns: i128,
+    /// What the trial is, as given with `track`.
+    pub label: Option<String>,
     pub started_t_s: f64,
     pub track_started_t_s: Option<f64>,
     pub length_m: Option<f64>,
@@ -71,10 +75,12 @@ pub struct Trial {
 }
 
 impl Trial {
-    pub fn new(id: String, tracker: String, t_s: f64) -> Self {
+    pub fn new(id: String, tracker: String, t_s: f64, epoch_offset_ns: i128) -> Self {
         Self {
             id,
             tracker,
+            epoch_offset_ns,
+            label: None,
             started_t_s: t_s,
             track_started_t_s: None,
             length_m: None,
@@ -152,6 +158,7 @@ impl Trial {
             "trial": self.id,
             "recording": recording,
             "tracker": self.tracker,
+            "label": self.label,
             "started_t_s": self.started_t_s,
             "track_started_t_s": self.track_started_t_s,
             "ended_t_s": ended_t_s,

@@ -1,0 +1,137 @@
+//! `pulsetrack replay FILE.mcap --tracker NAME [--json]`: feed a recorded trial to a tracker
+//! offline and print the points it locates, compared with those recorded live
+//! (docs/foxglove.md, "Offline replay").
+
+use crate::cli::stdout::outln;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use serde_json::json;
+
+use crate::recording::recover;
+use crate::recording::replay::{self, Located};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// A trial recording (`.mcap`), complete or cut short.
+    pub file: PathBuf,
+    /// The tracker to run (default: the one that recorded the trial).
+    #[arg(long)]
+    pub tracker: Option<String>,
+    /// Tracker parameters and array geometry from this config file instead of the
+    /// configuration recorded in the trial (needed only for recordings that hold none).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// One JSON document on stdout instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: &Args) -> ExitCode {
+    match run_inner(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("pulsetrack replay: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run_inner(args: &Args) -> Result<(), String> {
+    let back = recover::read(&args.file).map_err(|e| e.to_string())?;
+    let mut rec = replay::recorded(&back).map_err(|e| format!("{}: {e}", args.file.display()))?;
+    let fallback = crate::pulsetrackd::LoadedConfig::load(args.config.as_deref())
+        .map_err(|e| e.to_string())?;
+    let config_source = if args.config.is_some() {
+        rec.config = None;
+        fallback.origin.clone()
+    } else if rec.config.is_some() {
+        "the configuration recorded in the trial".to_string()
+    } else {
+        format!("{} (the trial recorded none)", fallback.origin)
+    };
+    let name = args
+        .tracker
+        .clone()
+        .or_else(|| rec.tracker.clone())
+        .ok_or("the recording does not name its tracker: give --tracker")?;
+    let out = replay::replay_with(&rec, &name, &fallback.config)?;
+    let same_tracker = rec.tracker.as_deref() == Some(name.as_str());
+    let difference = replay::first_difference(&out.located, &rec.located);
+    if args.json {
+        let doc = json!({
+            "recording": args.file,
+            "tracker": name,
+            "recorded_tracker": rec.tracker,
+            "parameters_from": config_source,
+            "frames": out.frames,
+            "missing_frames": rec.missing_frames,
+            "located": out.located,
+            "recorded_located": rec.located,
+            "identical_to_recorded": difference.is_none(),
+            "first_difference": difference,
+            "events": out.events,
+            "refused_calls": out.refused,
+        });
+        outln!("{doc}");
+        return Ok(());
+    }
+    outln!(
+        "{}: {} frames replayed through {name} (recorded with {}), parameters from {config_source}",
+        args.file.display(),
+        out.frames,
+        rec.tracker.as_deref().unwrap_or("an unnamed tracker")
+    );
+    if rec.missing_frames > 0 {
+        outln!(
+            "warning: {} frames are missing from the recording; the replay may differ from the trial",
+            rec.missing_frames
+        );
+    }
+    outln!(
+        "{:>3}  {:>10}  {:>9}  {:>9}  {:>7}  {:>11}  seed",
+        "#",
+        "t (s)",
+        "x (mm)",
+        "z (mm)",
+        "element",
+        "amp (mN)"
+    );
+    for (i, p) in out.located.iter().enumerate() {
+        outln!("{}", row(i, p));
+    }
+    for r in &out.refused {
+        outln!("refused: {r}");
+    }
+    match (difference, same_tracker) {
+        (None, _) => outln!(
+            "{} located points, identical bit for bit to the {} recorded",
+            out.located.len(),
+            rec.located.len()
+        ),
+        (Some(i), true) => outln!(
+            "differs from the recording at located point #{i} ({} replayed, {} recorded): the same tracker should reproduce the trial exactly",
+            out.located.len(),
+            rec.located.len()
+        ),
+        (Some(_), false) => outln!(
+            "{} located points; the recording's tracker located {}",
+            out.located.len(),
+            rec.located.len()
+        ),
+    }
+    Ok(())
+}
+
+fn row(i: usize, p: &Located) -> String {
+    format!(
+        "{i:>3}  {:>10.3}  {:>9.2}  {:>9.2}  {:>7.2}  {:>11.2}  {}",
+        p.t_s,
+        p.x_m * 1e3,
+        p.z_m * 1e3,
+        p.element,
+        p.amplitude_n * 1e3,
+        if p.seed { "yes" } else { "" }
+    )
+}
