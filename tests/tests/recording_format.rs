@@ -9,7 +9,7 @@ mod e2e;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::{SystemTime, UNIX_EPOCH};
 
-use e2e::{Setup, call, seed, start, wait_event};
+use e2e::{Setup, call, located_until_trial_end, seed, start};
 use serde_json::{Value, json};
 
 fn now_ns() -> u64 {
@@ -28,17 +28,7 @@ fn a_trial_file_is_compressed_epoch_stamped_self_describing_and_complete() {
     let label = "specimen 7, left radial, 2 N preload";
     let r = call(&mut c, "track", json!({"length_m": 0.03, "label": label}));
     let track_id = r["id"].as_u64().expect("id");
-    let mut located = Vec::new();
-    let ended = loop {
-        let e = wait_event(&mut c, "the trial's end", |e| {
-            e["event"] == "trial" && e["phase"] == "ended"
-                || e["event"] == "detection" && e["kind"] == "located"
-        });
-        if e["event"] == "trial" {
-            break e;
-        }
-        located.push(e["point"].clone());
-    };
+    let (located, ended) = located_until_trial_end(&mut c);
     let summary = &ended["summary"];
     assert_eq!(summary["label"], label, "{summary}");
     let config_path = daemon.config.clone();

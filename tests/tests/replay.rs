@@ -7,7 +7,7 @@ mod e2e;
 
 use std::process::Command;
 
-use e2e::{Setup, call, seed, start, wait_event};
+use e2e::{Setup, call, located_until_trial_end, seed, start};
 use serde_json::{Value, json};
 
 fn replay(args: &[&str]) -> (bool, Value, String) {
@@ -34,17 +34,7 @@ fn a_recorded_trial_replays_bit_for_bit_through_its_own_tracker() {
     let (daemon, mut c) = start(dir.path(), &Setup::default());
     seed(&mut c);
     call(&mut c, "track", json!({"length_m": 0.04}));
-    let mut live = Vec::new();
-    let ended = loop {
-        let e = wait_event(&mut c, "the trial's end", |e| {
-            e["event"] == "trial" && e["phase"] == "ended"
-                || e["event"] == "detection" && e["kind"] == "located"
-        });
-        if e["event"] == "trial" {
-            break e;
-        }
-        live.push(e["point"].clone());
-    };
+    let (live, ended) = located_until_trial_end(&mut c);
     daemon.stop();
     let file = ended["summary"]["recording"]
         .as_str()

@@ -243,6 +243,21 @@ pub fn scene(c: &mut Client) -> ([(f64, f64); 2], Option<f64>) {
     ([p(0), p(1)], s["tracked_length_m"].as_f64())
 }
 
+/// The located points reported until the trial's end, and the trial's `ended` event.
+pub fn located_until_trial_end(c: &mut Client) -> (Vec<Value>, Value) {
+    let mut located = Vec::new();
+    loop {
+        let e = wait_event(c, "the trial's end", |e| {
+            e["event"] == "trial" && e["phase"] == "ended"
+                || e["event"] == "detection" && e["kind"] == "located"
+        });
+        if e["event"] == "trial" {
+            return (located, e);
+        }
+        located.push(e["point"].clone());
+    }
+}
+
 /// Enable, move to each placement and mark it; both marks must find the pulse.
 pub fn seed(c: &mut Client) {
     call(
