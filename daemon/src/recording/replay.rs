@@ -7,7 +7,9 @@
 //! where no simulator knows the truth.
 
 use control::frames::SurfacePoint;
-use control::tracker::{TrackLimit, Tracker, TrackerEvent, TrackerInput, TrackerParams};
+use control::tracker::{
+    LocatedPoint, TrackLimit, Tracker, TrackerEvent, TrackerInput, TrackerParams,
+};
 use control::types::TactileFrame;
 use serde::Serialize;
 use serde_json::Value;
@@ -53,6 +55,21 @@ pub struct Located {
     pub element: f64,
     pub amplitude_n: f64,
     pub seed: bool,
+}
+
+impl From<&LocatedPoint> for Located {
+    fn from(p: &LocatedPoint) -> Self {
+        Located {
+            t_s: p.t_s,
+            x_m: p.point.x_m,
+            z_m: p.point.z_m,
+            sensor_x_m: p.sensor.x_m,
+            sensor_z_m: p.sensor.z_m,
+            element: p.element,
+            amplitude_n: p.amplitude_n,
+            seed: p.seed,
+        }
+    }
 }
 
 impl Located {
@@ -207,16 +224,7 @@ pub fn replay(steps: &[Step], tracker: &mut dyn Tracker) -> Replayed {
                 });
                 if let Some(e) = o.event {
                     if let TrackerEvent::Located(p) = e {
-                        out.located.push(Located {
-                            t_s: p.t_s,
-                            x_m: p.point.x_m,
-                            z_m: p.point.z_m,
-                            sensor_x_m: p.sensor.x_m,
-                            sensor_z_m: p.sensor.z_m,
-                            element: p.element,
-                            amplitude_n: p.amplitude_n,
-                            seed: p.seed,
-                        });
+                        out.located.push(Located::from(&p));
                     }
                     out.events.push(event_json(&e));
                 }

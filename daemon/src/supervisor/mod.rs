@@ -581,7 +581,7 @@ impl Supervisor {
             return;
         };
         let mut e = fox::SceneEntity::new(self.fox_time(t), TISSUE_FRAME, "located");
-        for p in &trial.located {
+        for p in trial.located.iter().map(|r| &r.point) {
             let (r, g, b) = if p.seed {
                 (0.2, 0.5, 1.0)
             } else {

@@ -6,18 +6,14 @@ use serde::Serialize;
 use serde_json::{Value, json};
 
 use crate::backend::{PathJudge, Truth};
+use crate::recording::replay::Located;
 
 /// A located point with what only the simulator knows.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct LocatedRecord {
-    pub t_s: f64,
-    pub x_m: f64,
-    pub z_m: f64,
-    pub sensor_x_m: f64,
-    pub sensor_z_m: f64,
-    pub element: f64,
-    pub amplitude_n: f64,
-    pub seed: bool,
+    /// What the tracker reported (the fields replay reproduces).
+    #[serde(flatten)]
+    pub point: Located,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub true_x_m: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -92,7 +88,7 @@ impl Trial {
     }
 
     pub fn seeds(&self) -> usize {
-        self.located.iter().filter(|p| p.seed).count()
+        self.located.iter().filter(|p| p.point.seed).count()
     }
 
     pub fn add_located(
@@ -102,14 +98,7 @@ impl Trial {
         judge: Option<&dyn PathJudge>,
     ) -> LocatedRecord {
         let r = LocatedRecord {
-            t_s: p.t_s,
-            x_m: p.point.x_m,
-            z_m: p.point.z_m,
-            sensor_x_m: p.sensor.x_m,
-            sensor_z_m: p.sensor.z_m,
-            element: p.element,
-            amplitude_n: p.amplitude_n,
-            seed: p.seed,
+            point: Located::from(p),
             true_x_m: truth.map(|t| t.sensor_x_m),
             true_z_m: truth.map(|t| t.sensor_z_m),
             lateral_error_m: judge.map(|j| j.lateral_offset_m(p.point.x_m, p.point.z_m)),
@@ -122,7 +111,7 @@ impl Trial {
     pub fn followed_m(&self) -> f64 {
         self.located
             .windows(2)
-            .map(|w| (w[1].x_m - w[0].x_m).hypot(w[1].z_m - w[0].z_m))
+            .map(|w| (w[1].point.x_m - w[0].point.x_m).hypot(w[1].point.z_m - w[0].point.z_m))
             .sum()
     }
 
@@ -149,7 +138,7 @@ impl Trial {
         let errors: Vec<f64> = self
             .located
             .iter()
-            .filter(|p| !p.seed)
+            .filter(|p| !p.point.seed)
             .filter_map(|p| p.lateral_error_m)
             .collect();
         let lateral = error_stats(&errors);
