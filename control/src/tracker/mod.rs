@@ -189,8 +189,17 @@ pub trait Tracker: Send {
 
     /// Consume one tactile frame.
     fn step(&mut self, input: &TrackerInput<'_>) -> TrackerOutput;
+
+    /// Where the robot believed the sensor was before the tracker was fed its first frame
+    /// (the surgeon's approach to the first placement, oldest first). A tracker that models
+    /// how the sensor trails the robot's motion learns the approach's direction from it;
+    /// the rest ignore it.
+    fn approach(&mut self, believed: crate::frames::SurfacePoint) {
+        let _ = believed;
+    }
 }
 
+pub mod approach;
 pub mod beatslide;
 pub mod event_queue;
 pub mod line_fit;

@@ -14,7 +14,10 @@
 //! docs/tracker-beatslide.md describes every rule.
 
 mod lost;
+mod seating;
 mod sliding;
+
+use seating::Stroke;
 
 use super::beat_fix::{BeatFix, BeatMiss, SpatialPrior, analyse_window};
 use super::drag::Drag;
@@ -133,6 +136,12 @@ pub struct InvalidParams(pub String);
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum State {
     Seeding,
+    /// The first mark's seating stroke (`machine/seating.rs`); `plan` is drawn on the first
+    /// frame.
+    Seating {
+        plan: Option<Stroke>,
+        frames: u64,
+    },
     /// Acquiring at a manual placement since `since_s` (None until the sensor is at rest);
     /// analysed once `window_s` is full.
     Marking {
@@ -517,7 +526,12 @@ impl BeatSlide {
             .then_some(since)
     }
 
-    fn step_marking(&mut self, input: &TrackerInput<'_>, mut since_s: Option<f64>, window_s: f64) {
+    pub(super) fn step_marking(
+        &mut self,
+        input: &TrackerInput<'_>,
+        mut since_s: Option<f64>,
+        window_s: f64,
+    ) {
         let t = input.frame.t_s;
         let ready = self.rest_window(input, &mut since_s, window_s);
         self.state = State::Marking { since_s, window_s };
@@ -584,6 +598,12 @@ impl BeatSlide {
             },
             State::Returning { target, .. } => MotionCommand::MoveTo {
                 target: self.belief_from_sensor(target),
+                speed_m_s: self.params.return_speed_m_s,
+            },
+            State::Seating {
+                plan: Some(stroke), ..
+            } => MotionCommand::MoveTo {
+                target: self.belief_from_sensor(stroke.target()),
                 speed_m_s: self.params.return_speed_m_s,
             },
             _ => MotionCommand::Hold,
@@ -662,6 +682,13 @@ fn check_params(p: &BeatSlideParams, fs: f64) -> Result<(), InvalidParams> {
     ] {
         positive(name, v)?;
     }
+    // A stroke longer than the array's travel is a typo, not a seating.
+    if !(0.0..=0.05).contains(&p.seat_stroke_m) {
+        return Err(InvalidParams(format!(
+            "seat_stroke_m must be in [0, 0.05] m, got {}",
+            p.seat_stroke_m
+        )));
+    }
     // A negative deflection of a whole unit would map every position onto the origin.
     if !(0.0..0.5).contains(&p.tilt_deflection) {
         return Err(InvalidParams(format!(
@@ -723,7 +750,7 @@ impl Tracker for BeatSlide {
             State::Seeding => TrackerPhase::Seeding {
                 seeds: self.seeds.len(),
             },
-            State::Marking { .. } => TrackerPhase::Marking,
+            State::Marking { .. } | State::Seating { .. } => TrackerPhase::Marking,
             State::Sliding { .. }
             | State::Stopping { .. }
             | State::Searching { .. }
@@ -735,10 +762,14 @@ impl Tracker for BeatSlide {
     fn mark(&mut self) -> Result<(), TrackerError> {
         match self.phase() {
             TrackerPhase::Seeding { .. } => {
-                self.state = State::Marking {
-                    since_s: None,
-                    window_s: self.params.mark_window_s,
-                };
+                if self.seeds.is_empty() && self.params.seat_stroke_m > 0.0 {
+                    self.state = State::Seating {
+                        plan: None,
+                        frames: 0,
+                    };
+                } else {
+                    self.begin_marking();
+                }
                 Ok(())
             }
             phase => Err(TrackerError::WrongPhase {
@@ -824,6 +855,16 @@ impl Tracker for BeatSlide {
         }
     }
 
+    fn approach(&mut self, believed: SurfacePoint) {
+        // Without the seating stroke the approach's lag is not known (a short approach
+        // leaves the rod's touchdown bend), and taking it as known errs more
+        // (docs/tracker-beatslide.md, "The first placement").
+        if self.params.seat_stroke_m > 0.0 && self.history.newest_t_s().is_none() {
+            self.drag
+                .update(self.sensor_from_belief(believed), self.params.lag_prior_m);
+        }
+    }
+
     fn step(&mut self, input: &TrackerInput<'_>) -> TrackerOutput {
         // From here on every position is where the sensor truly is (as far as the tilt
         // model knows); the moves are turned back into the robot's belief in `motion`.
@@ -853,6 +894,7 @@ impl Tracker for BeatSlide {
         }
         match self.state {
             State::Seeding | State::Finished(_) => {}
+            State::Seating { plan, frames } => self.step_seating(input, plan, frames),
             State::Marking { since_s, window_s } => self.step_marking(input, since_s, window_s),
             State::Sliding { .. } => self.step_sliding(input),
             State::Stopping { frames, attempt } => self.step_stopping(input, frames, attempt),

@@ -76,6 +76,12 @@ pub struct BeatSlideParams {
     pub tilt_deflection: f64,
     /// Speed of the moves back to the last fix, m/s.
     pub return_speed_m_s: f64,
+    /// The first mark begins with a stroke this far back along the approach and forward
+    /// again, so that the sensor's lag trails a known motion (`machine/seating.rs`), m; 0
+    /// (the default) marks where the surgeon left it. 8 mm cuts the first seed points more
+    /// than 2 mm off on the scene families by four fifths but doubles the SD on the shipped
+    /// arcs, for reasons not yet found (docs/tracker-beatslide.md, "The first placement").
+    pub seat_stroke_m: f64,
 }
 
 impl Default for BeatSlideParams {
@@ -109,6 +115,7 @@ impl Default for BeatSlideParams {
             // The seed's bench as simulated (docs/tracker-beatslide.md, "Tilt deflection").
             tilt_deflection: 0.027,
             return_speed_m_s: 0.01,
+            seat_stroke_m: 0.0,
         }
     }
 }
