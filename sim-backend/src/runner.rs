@@ -15,6 +15,7 @@ use control::kinematics::ArmModel;
 use control::motion::{Arrival, MotionPlanner, Shortfall};
 use control::pd::PdController;
 use control::pd::gravity::{ArmGravity, GravityModel};
+use control::tracker::approach::ApproachTrail;
 use control::tracker::{
     EndReason, MotionCommand, TrackLimit, Tracker, TrackerEvent, TrackerInput, TrackerPhase,
 };
@@ -94,6 +95,9 @@ struct Lockstep {
     misses: u32,
     first_acquisition: Vec<TactileFrame>,
     recording_first: bool,
+    /// Until the first mark, the robot's believed positions (the approach), handed to the
+    /// tracker at that mark as the daemon hands it those from before its trial began.
+    approach: Option<ApproachTrail>,
     sensor_track: Vec<(f64, SurfacePoint, SurfacePoint)>,
     next_track_sample_s: f64,
     log: Vec<String>,
@@ -164,6 +168,7 @@ impl Lockstep {
             misses: 0,
             first_acquisition: Vec::new(),
             recording_first: false,
+            approach: Some(ApproachTrail::default()),
             sensor_track: Vec::new(),
             next_track_sample_s: 0.0,
             log: Vec::new(),
@@ -317,6 +322,9 @@ impl Lockstep {
                 let (b, t) = (self.believed_surface(), self.now());
                 let v = self.believed_speed_m_s;
                 self.planner.observe(b, v, t);
+                if let Some(trail) = self.approach.as_mut() {
+                    trail.push(b);
+                }
                 if self.recording_first {
                     self.first_acquisition.push(f);
                 }
@@ -554,12 +562,23 @@ impl Lockstep {
 
     /// Mark at the current placement until the tracker reports the seed point or a miss.
     fn mark(&mut self) -> Result<bool, Stop> {
+        if let Some(mut trail) = self.approach.take() {
+            trail.hand_to(self.tracker.as_mut());
+        }
         for _ in 0..MARK_ATTEMPTS {
             self.tracker
                 .mark()
                 .map_err(|e| Stop::Fault(format!("mark refused: {e}")))?;
             loop {
                 let frame = self.next_frame()?;
+                // A move the tracker makes while marking (a seating stroke) that stops short
+                // ends the trial as it does while tracking, and as the daemon ends it.
+                if self.last_move_target.is_some()
+                    && let Arrival::StoppedShort(shortfall) = self.arrival()
+                {
+                    self.tracker.stop();
+                    return Err(self.stopped_short("move while marking".into(), shortfall));
+                }
                 match self.feed(&frame)? {
                     Some(TrackerEvent::Located(p)) if p.seed => return Ok(true),
                     Some(TrackerEvent::Missed { .. }) => break,

@@ -115,9 +115,17 @@ pub struct TrackerInputRecord {
 #[serde(tag = "name", rename_all = "snake_case")]
 pub enum TrackerCall {
     Mark,
-    Start { length_m: Option<f64> },
+    Start {
+        length_m: Option<f64>,
+    },
     Stop,
     TargetUnreachable,
+    /// One believed sensor position before the trial's first frame (the approach to the
+    /// first placement, tissue frame, m), oldest first.
+    Approach {
+        x_m: f64,
+        z_m: f64,
+    },
 }
 
 /// Any other event: state changes, detections, faults, trial start and end, labels. Their

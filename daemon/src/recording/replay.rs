@@ -243,6 +243,10 @@ pub fn replay(steps: &[Step], tracker: &mut dyn Tracker) -> Replayed {
                         tracker.target_unreachable();
                         Ok(())
                     }
+                    TrackerCall::Approach { x_m, z_m } => {
+                        tracker.approach(SurfacePoint::new(*x_m, *z_m));
+                        Ok(())
+                    }
                 };
                 if let Err(e) = r {
                     out.refused.push(format!("{call:?}: {e}"));

@@ -21,6 +21,7 @@ use crossbeam_channel::{Receiver, Sender, select, tick};
 use serde_json::{Value, json};
 
 use control::frames::SurfacePoint;
+use control::tracker::approach::ApproachTrail;
 use control::tracker::{MotionCommand, TrackLimit, Tracker, TrackerEvent, TrackerInput};
 
 use crate::backend::{BackendInfo, PathJudge, Truth};
@@ -170,6 +171,9 @@ pub struct Supervisor {
     /// until a manual move arrives. With the motion it was judged on.
     stopped_short: Option<(u64, control::motion::Shortfall)>,
     tracker_target: Option<SurfacePoint>,
+    /// The believed sensor positions while no trial runs: the approach to the first
+    /// placement, handed to the next trial's tracker at its first mark.
+    approach: ApproachTrail,
     pending: Vec<Pending>,
     timing: Option<PeriodSummary>,
     overruns_reported: u64,
@@ -229,6 +233,7 @@ impl Supervisor {
             motion_seq: 0,
             stopped_short: None,
             tracker_target: None,
+            approach: ApproachTrail::default(),
             pending: Vec::new(),
             timing: None,
             overruns_reported: 0,
@@ -524,11 +529,20 @@ impl Supervisor {
             epoch_offset_ns,
         });
         let trial = Trial::new(id.clone(), tracker.name().to_string(), t, epoch_offset_ns);
+        let mut tracker = tracker;
+        let approach = self.approach.hand_to(tracker.as_mut());
         self.tracker = Some(tracker);
         self.trial = Some(trial);
         let v = json!({"event": "trial", "phase": "started", "t_s": t, "trial": id,
             "recording": self.s.recording_dir.join(format!("{id}.mcap"))});
         self.record(Topic::Events, t, &v);
+        // In order, before the first frame the tracker sees: what replay hands it too.
+        for p in approach {
+            self.record_tracker_call(TrackerCall::Approach {
+                x_m: p.x_m,
+                z_m: p.z_m,
+            });
+        }
         self.log_line(t, level::INFO, format!("trial {id} started"));
         self.record_true_path(t);
         self.publish(Stream::Trials, 0, &v, true);

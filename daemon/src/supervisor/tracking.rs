@@ -19,6 +19,9 @@ impl Supervisor {
         // operator, and `settled` would wrongly vouch for the tracker's interrupted move.
         // The state change below (moving -> holding) cannot pause, so this holds for both.
         let fed = self.tracker.is_some() && self.state != OpState::Paused;
+        if self.tracker.is_none() {
+            self.approach.push(f.sensor);
+        }
         let sample = report::tactile_sample(&f, fed.then_some(settled));
         let mut ev = serde_json::to_value(&sample).unwrap_or_default();
         self.record(Topic::Tactile, f.frame.t_s, &ev);
@@ -44,19 +47,20 @@ impl Supervisor {
         if let Some(e) = out.event {
             self.on_tracker_event(e);
         }
-        match self.state {
-            OpState::Seeding => {
-                // The mark is over when its result (located or missed) has been reported,
-                // which may be a frame or more after the tracker's phase went back.
-                let result = matches!(
-                    out.event,
-                    Some(TrackerEvent::Located(_) | TrackerEvent::Missed { .. })
-                );
-                if result {
-                    self.set_state(OpState::Holding);
-                }
+        if self.state == OpState::Seeding {
+            // The mark is over when its result (located or missed) has been reported,
+            // which may be a frame or more after the tracker's phase went back.
+            let result = matches!(
+                out.event,
+                Some(TrackerEvent::Located(_) | TrackerEvent::Missed { .. })
+            );
+            if result {
+                self.set_state(OpState::Holding);
             }
-            OpState::Tracking => match out.motion {
+        }
+        // A mark may move the arm too (beatslide seats the sensor before its first).
+        match self.state {
+            OpState::Tracking | OpState::Seeding => match out.motion {
                 MotionCommand::MoveTo { target, speed_m_s } => {
                     if self.tracker_target != Some(target) {
                         self.tracker_move(target, speed_m_s);

@@ -1,0 +1,109 @@
+//! `beatslide`'s seating stroke through the real daemon on the simulated bench: with
+//! `seat_stroke_m` set, the first mark moves the arm back along the surgeon's approach and
+//! onto the placement again before it marks (the daemon carries out a marking tracker's
+//! moves, as the lockstep runner does); the approach the tracker was handed is recorded, so
+//! that replay reproduces the trial bit for bit.
+
+mod e2e;
+
+use std::process::Command;
+use std::time::Duration;
+
+use e2e::{
+    Setup, call, located_until_trial_end, scene, start_with_config, wait_event, wait_state,
+    write_config,
+};
+use serde_json::{Value, json};
+
+fn sensor(c: &mut daemon::console::client::Client) -> (f64, f64) {
+    let st = call(c, "status", json!({}));
+    let s = &st["arm"]["sensor"];
+    (
+        s["x_m"].as_f64().expect("sensor x"),
+        s["z_m"].as_f64().expect("sensor z"),
+    )
+}
+
+#[test]
+fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let config = write_config(dir.path(), &Setup::default());
+    let text = std::fs::read_to_string(&config).expect("config");
+    let seated = text.replace(
+        "name: \"seed2002\",",
+        "name: \"beatslide\", params: (beatslide: (seat_stroke_m: 0.008)),",
+    );
+    assert_ne!(
+        text, seated,
+        "the shipped sim config no longer names seed2002"
+    );
+    std::fs::write(&config, seated).expect("write config");
+    let (daemon, mut c) = start_with_config(dir.path(), config);
+    call(
+        &mut c,
+        "subscribe",
+        json!({"streams": ["state", "detections", "faults", "trials"]}),
+    );
+    let (placements, _) = scene(&mut c);
+    call(&mut c, "enable", json!({}));
+
+    // The first placement, then its mark: the arm leaves the placement by most of the
+    // stroke (the seed's PD stops short of a move's end) and comes back before the result.
+    let (x0, z0) = placements[0];
+    call(&mut c, "move", json!({"x_m": x0, "z_m": z0}));
+    wait_state(&mut c, "holding");
+    let home = sensor(&mut c);
+    call(&mut c, "mark", json!({}));
+    let mut farthest: f64 = 0.0;
+    let result = loop {
+        let (x, z) = sensor(&mut c);
+        farthest = farthest.max((x - home.0).hypot(z - home.1));
+        match c.next_event(Duration::from_millis(20)).expect("event") {
+            Some(e) if e["event"] == "detection" && e["kind"] != "pulse" => break e,
+            Some(e) => assert!(e["event"] != "fault", "fault while marking: {e}"),
+            None => {}
+        }
+    };
+    assert_eq!(result["kind"], "located", "{result}");
+    assert!(
+        (0.004..0.012).contains(&farthest),
+        "the arm went {:.1} mm from the placement while marking",
+        farthest * 1e3
+    );
+    let back = sensor(&mut c);
+    assert!(
+        (back.0 - home.0).hypot(back.1 - home.1) < 0.006,
+        "the mark ended {back:?}, the placement was {home:?}"
+    );
+
+    // The second placement is marked where it is (no stroke), then a short track.
+    let (x1, z1) = placements[1];
+    wait_state(&mut c, "holding");
+    call(&mut c, "move", json!({"x_m": x1, "z_m": z1}));
+    wait_state(&mut c, "holding");
+    call(&mut c, "mark", json!({}));
+    let e = wait_event(&mut c, "the second mark's result", |e| {
+        e["event"] == "detection" && (e["kind"] == "located" || e["kind"] == "missed")
+    });
+    assert_eq!(e["kind"], "located", "{e}");
+    wait_state(&mut c, "holding");
+    call(&mut c, "track", json!({"length_m": 0.03}));
+    let (_, ended) = located_until_trial_end(&mut c);
+    daemon.stop();
+    let file = ended["summary"]["recording"]
+        .as_str()
+        .expect("recording")
+        .to_string();
+
+    let out = Command::new(env!("CARGO_BIN_EXE_pt-console"))
+        .args(["replay", &file, "--tracker", "beatslide", "--json"])
+        .output()
+        .expect("run pulsetrack replay");
+    let doc: Value = serde_json::from_slice(&out.stdout).unwrap_or(Value::Null);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(doc["identical_to_recorded"], true, "{doc}");
+}
