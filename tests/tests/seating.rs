@@ -9,13 +9,14 @@ mod e2e;
 use std::process::Command;
 use std::time::Duration;
 
+use daemon::console::client::Client;
 use e2e::{
     Setup, call, located_until_trial_end, scene, start_with_config, wait_event, wait_state,
     write_config,
 };
 use serde_json::{Value, json};
 
-fn sensor(c: &mut daemon::console::client::Client) -> (f64, f64) {
+fn sensor(c: &mut Client) -> (f64, f64) {
     let st = call(c, "status", json!({}));
     let s = &st["arm"]["sensor"];
     (
@@ -24,10 +25,9 @@ fn sensor(c: &mut daemon::console::client::Client) -> (f64, f64) {
     )
 }
 
-#[test]
-fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
-    let dir = tempfile::tempdir().expect("tmp");
-    let config = write_config(dir.path(), &Setup::default());
+/// The daemon on the shipped sim config with `beatslide` seating by 8 mm.
+fn start_seating(dir: &std::path::Path) -> (e2e::Running, Client) {
+    let config = write_config(dir, &Setup::default());
     let text = std::fs::read_to_string(&config).expect("config");
     let seated = text.replace(
         "name: \"seed2002\",",
@@ -38,7 +38,13 @@ fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
         "the shipped sim config no longer names seed2002"
     );
     std::fs::write(&config, seated).expect("write config");
-    let (daemon, mut c) = start_with_config(dir.path(), config);
+    start_with_config(dir, config)
+}
+
+#[test]
+fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let (daemon, mut c) = start_seating(dir.path());
     call(
         &mut c,
         "subscribe",
@@ -106,4 +112,57 @@ fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert_eq!(doc["identical_to_recorded"], true, "{doc}");
+}
+
+#[test]
+fn stop_during_the_stroke_holds_the_arm_and_the_next_mark_needs_no_restart() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let (daemon, mut c) = start_seating(dir.path());
+    call(
+        &mut c,
+        "subscribe",
+        json!({"streams": ["state", "detections", "faults", "trials"]}),
+    );
+    let (placements, _) = scene(&mut c);
+    call(&mut c, "enable", json!({}));
+    let (x0, z0) = placements[0];
+    call(&mut c, "move", json!({"x_m": x0, "z_m": z0}));
+    wait_state(&mut c, "holding");
+    let home = sensor(&mut c);
+    call(&mut c, "mark", json!({}));
+    // Stop once the stroke is under way.
+    let deadline = std::time::Instant::now() + Duration::from_secs(120);
+    loop {
+        let (x, z) = sensor(&mut c);
+        if (x - home.0).hypot(z - home.1) > 0.002 {
+            break;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the stroke never began"
+        );
+    }
+    call(&mut c, "stop", json!({}));
+    let ended = wait_event(&mut c, "the abandoned trial", |e| {
+        e["event"] == "trial" && e["phase"] == "ended"
+    });
+    assert_eq!(ended["summary"]["end_reason"], "abandoned", "{ended}");
+    wait_state(&mut c, "done");
+    // The arm stays where it stopped: the tracker moves it no more.
+    let a = sensor(&mut c);
+    std::thread::sleep(Duration::from_millis(300));
+    let b = sensor(&mut c);
+    assert!(
+        (a.0 - b.0).hypot(a.1 - b.1) < 5e-4,
+        "the arm moved from {a:?} to {b:?} after stop"
+    );
+    // No restart: back onto the placement, and a new trial's first mark seats and finds it.
+    call(&mut c, "move", json!({"x_m": x0, "z_m": z0}));
+    wait_state(&mut c, "holding");
+    call(&mut c, "mark", json!({}));
+    let e = wait_event(&mut c, "the new mark's result", |e| {
+        e["event"] == "detection" && (e["kind"] == "located" || e["kind"] == "missed")
+    });
+    assert_eq!(e["kind"], "located", "{e}");
+    daemon.stop();
 }
