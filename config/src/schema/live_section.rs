@@ -81,7 +81,9 @@ mod tests {
     use crate::schema::Config;
 
     fn load(live: &str) -> Result<Config, String> {
-        let text = format!("Config(version: 1, backend: Sim((scene: \"seed-arc-145.ron\")), live: {live})");
+        let text = format!(
+            "Config(version: 1, backend: Sim((scene: \"seed-arc-145.ron\")), live: {live})"
+        );
         load_str::<Config>("t.ron", &text).map_err(|e| e.to_string())
     }
 
@@ -124,7 +126,10 @@ mod tests {
     #[test]
     fn bad_values_name_their_field() {
         let e = load("(address: \"localhost\")").expect_err("hostname");
-        assert!(e.contains("live.address") && e.contains("not an IP address"), "{e}");
+        assert!(
+            e.contains("live.address") && e.contains("not an IP address"),
+            "{e}"
+        );
         let e = load("(queue_messages: 1)").expect_err("tiny queue");
         assert!(e.contains("live.queue_messages"), "{e}");
         let e = load("(port: 70000)").expect_err("port");

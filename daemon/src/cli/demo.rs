@@ -115,7 +115,9 @@ fn run_inner(args: &Args) -> Result<bool, String> {
             Ok(()) => layout.display().to_string(),
             Err(e) => format!("not written ({}: {e})", layout.display()),
         };
-        outln!("live view: {url} (Foxglove: Open connection, Foxglove WebSocket; --time-scale 1 to watch at real time)");
+        outln!(
+            "live view: {url} (Foxglove: Open connection, Foxglove WebSocket; --time-scale 1 to watch at real time)"
+        );
         outln!("layout:   {layout} (Foxglove: Layouts, Import from file)");
     }
     let result = drive(&daemon, &out, wall0, &artery);

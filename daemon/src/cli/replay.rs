@@ -165,8 +165,8 @@ fn run_live(args: &Args) -> Result<(), String> {
             args.file.display()
         )
     })?;
-    let mut settings =
-        live::server::LiveSettings::from_config(&loaded.config, epoch).map_err(|e| e.to_string())?;
+    let mut settings = live::server::LiveSettings::from_config(&loaded.config, epoch)
+        .map_err(|e| e.to_string())?;
     settings.name = format!("pulsetrack replay {}", args.file.display());
     if let Some(p) = args.port {
         settings.port = p;

@@ -57,7 +57,12 @@ impl LiveBandPass {
     }
 
     /// Add a raw frame; the band-passed sample it completes, if any.
-    pub fn push(&mut self, t_s: f64, seq: u64, force_n: &[f64; ELEMENTS]) -> Option<BandPassedFrame> {
+    pub fn push(
+        &mut self,
+        t_s: f64,
+        seq: u64,
+        force_n: &[f64; ELEMENTS],
+    ) -> Option<BandPassedFrame> {
         let contiguous = self
             .raw
             .back()
@@ -149,7 +154,11 @@ mod tests {
     fn frame(i: u64, amp: f64) -> [f64; ELEMENTS] {
         let t = i as f64 / FS;
         std::array::from_fn(|e| {
-            let pulse = if e == 3 { amp * (2.0 * std::f64::consts::PI * t).sin() } else { 0.0 };
+            let pulse = if e == 3 {
+                amp * (2.0 * std::f64::consts::PI * t).sin()
+            } else {
+                0.0
+            };
             2.0 + 0.05 * t + pulse
         })
     }
@@ -168,8 +177,16 @@ mod tests {
         // Stamped at the centre frame: in phase with the raw pulse, at unit gain near 1 Hz.
         for o in &outs[200..] {
             let want = 0.1 * (2.0 * std::f64::consts::PI * o.t_s).sin();
-            assert!((o.force_n[3] - want).abs() < 0.01, "{} vs {want}", o.force_n[3]);
-            assert!(o.force_n[0].abs() < 1e-9, "offset and drift pass: {}", o.force_n[0]);
+            assert!(
+                (o.force_n[3] - want).abs() < 0.01,
+                "{} vs {want}",
+                o.force_n[3]
+            );
+            assert!(
+                o.force_n[0].abs() < 1e-9,
+                "offset and drift pass: {}",
+                o.force_n[0]
+            );
             assert_eq!(o.seq as f64, (o.t_s * FS).round());
         }
         let p = bp.pulse(10.0, Some(1.0)).expect("window full");

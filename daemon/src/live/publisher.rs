@@ -131,7 +131,10 @@ impl Publisher {
         self.frames_since_pulse += 1;
         if self.frames_since_pulse >= self.frames_per_pulse {
             self.frames_since_pulse = 0;
-            if let Some(p) = self.bandpass.as_ref().and_then(|b| b.pulse(t, self.period_s))
+            if let Some(p) = self
+                .bandpass
+                .as_ref()
+                .and_then(|b| b.pulse(t, self.period_s))
                 && let Ok(json) = serde_json::to_vec(&p)
             {
                 self.log(LiveTopic::Pulse, self.epoch.ns(t), &json);

@@ -133,10 +133,20 @@ mod tests {
         let dir = tempfile::tempdir().expect("tmp");
         let back = recording(dir.path());
         let epoch = epoch_of(&back).expect("epoch");
-        assert_eq!(epoch.ns(10.0), back.on(Topic::Tactile).next().map(|m| m.log_time_ns).unwrap_or(0));
+        assert_eq!(
+            epoch.ns(10.0),
+            back.on(Topic::Tactile)
+                .next()
+                .map(|m| m.log_time_ns)
+                .unwrap_or(0)
+        );
         let (tap, rx, _) = LiveTap::new(1024, epoch, "ws://x".into());
         let schedule = schedule(&back);
-        assert!(schedule.windows(2).all(|w| w[0].log_time_ns <= w[1].log_time_ns));
+        assert!(
+            schedule
+                .windows(2)
+                .all(|w| w[0].log_time_ns <= w[1].log_time_ns)
+        );
         let report = serve(&schedule, &tap, 100.0);
         // 50 frames, one event, and the period it carries.
         assert_eq!(report.messages, 52);
@@ -144,6 +154,9 @@ mod tests {
         let got: Vec<LiveMsg> = rx.try_iter().collect();
         assert_eq!(got.len(), 52);
         assert!(matches!(got[0], LiveMsg::Tactile { ref sample, .. } if sample.seq == 0));
-        assert!(got.iter().any(|m| matches!(m, LiveMsg::Period(Some(p)) if *p == 0.9)));
+        assert!(
+            got.iter()
+                .any(|m| matches!(m, LiveMsg::Period(Some(p)) if *p == 0.9))
+        );
     }
 }

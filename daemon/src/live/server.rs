@@ -16,6 +16,9 @@ use crate::recording::trial_file::Epoch;
 /// How the pulse swing is measured: over this many seconds of band-passed frames.
 const SWING_WINDOW_S: f64 = 2.0;
 
+/// How long clients get to close when the server stops.
+const STOP_WAIT: std::time::Duration = std::time::Duration::from_secs(1);
+
 /// What the live view needs.
 #[derive(Debug, Clone)]
 pub struct LiveSettings {
@@ -86,7 +89,9 @@ pub struct LiveServer {
 
 impl std::fmt::Debug for LiveServer {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("LiveServer").field("url", &self.url).finish()
+        f.debug_struct("LiveServer")
+            .field("url", &self.url)
+            .finish()
     }
 }
 
@@ -113,13 +118,17 @@ impl LiveServer {
             )
             .map_err(|source| LiveError::Bind { addr, source })?;
         let url = format!("ws://{}", SocketAddr::new(s.address, handle.port()));
-        let bandpass = s.band.and_then(|spec| match LiveBandPass::new(spec, SWING_WINDOW_S) {
-            Ok(b) => Some(b),
-            Err(e) => {
-                tracing::warn!("live view: no band-passed frames or pulse ({e}); raw frames only");
-                None
-            }
-        });
+        let bandpass = s
+            .band
+            .and_then(|spec| match LiveBandPass::new(spec, SWING_WINDOW_S) {
+                Ok(b) => Some(b),
+                Err(e) => {
+                    tracing::warn!(
+                        "live view: no band-passed frames or pulse ({e}); raw frames only"
+                    );
+                    None
+                }
+            });
         let (tap, inbox, counters) = LiveTap::new(s.queue_messages, s.epoch, url.clone());
         let publisher = Publisher::new(channels, counters, bandpass, s.sample_rate_hz, s.epoch);
         let publisher = std::thread::Builder::new()
@@ -156,8 +165,17 @@ impl LiveServer {
 
     /// `join`: wait for the publisher (its taps must be gone, or this waits for them).
     fn shut_down(&mut self, join: bool) {
-        if let Some(h) = self.handle.take() {
-            h.stop().wait_blocking();
+        if let (Some(h), Some(rt)) = (self.handle.take(), self.runtime.as_ref()) {
+            // A client that stopped reading never finishes its close: give the clients a
+            // moment, then drop their tasks (dropping the wait aborts them).
+            let shutdown = h.stop();
+            let finished =
+                rt.block_on(async { tokio::time::timeout(STOP_WAIT, shutdown.wait()).await });
+            if finished.is_err() {
+                tracing::warn!(
+                    "live view: a client did not close within {STOP_WAIT:?}; disconnected"
+                );
+            }
         }
         if let Some(p) = self.publisher.take()
             && join
@@ -174,5 +192,55 @@ impl Drop for LiveServer {
     fn drop(&mut self) {
         // Never waits on the publisher: a tap may outlive a server dropped in a hurry.
         self.shut_down(false);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings(port: u16) -> LiveSettings {
+        LiveSettings {
+            address: "127.0.0.1".parse().expect("ip"),
+            port,
+            queue_messages: 64,
+            band: None,
+            sample_rate_hz: 100.0,
+            epoch: Epoch { offset_ns: 0 },
+            name: "test".into(),
+        }
+    }
+
+    #[test]
+    fn starts_on_a_free_port_and_stops_with_a_silent_client_connected() {
+        let (server, tap) = LiveServer::start(&settings(0)).expect("start");
+        let url = server.url().to_string();
+        assert!(
+            url.starts_with("ws://127.0.0.1:") && !url.ends_with(":0"),
+            "{url}"
+        );
+        // A TCP client that never even finishes the WebSocket handshake.
+        let addr = url.trim_start_matches("ws://");
+        let _silent = std::net::TcpStream::connect(addr).expect("connect");
+        drop(tap);
+        // Returns (the test would hang otherwise).
+        server.stop();
+    }
+
+    #[test]
+    fn a_taken_port_is_a_bind_error_naming_the_address() {
+        let (server, _tap) = LiveServer::start(&settings(0)).expect("start");
+        let port: u16 = server
+            .url()
+            .rsplit(':')
+            .next()
+            .and_then(|p| p.parse().ok())
+            .expect("port");
+        match LiveServer::start(&settings(port)) {
+            Err(e @ LiveError::Bind { .. }) => {
+                assert!(e.to_string().contains(&format!("127.0.0.1:{port}")), "{e}")
+            }
+            other => panic!("expected a bind error, got {other:?}"),
+        }
     }
 }

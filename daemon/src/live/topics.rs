@@ -40,10 +40,7 @@ impl LiveTopic {
 
     /// Position in [`LiveTopic::ALL`] (a bit in the publisher's "subscribed" mask).
     pub fn index(&self) -> usize {
-        LiveTopic::ALL
-            .iter()
-            .position(|t| t == self)
-            .unwrap_or(0)
+        LiveTopic::ALL.iter().position(|t| t == self).unwrap_or(0)
     }
 
     pub fn name(&self) -> &'static str {

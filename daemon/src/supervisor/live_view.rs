@@ -108,7 +108,8 @@ impl Supervisor {
             return;
         };
         let epoch = live.epoch();
-        let mut entities: Vec<fox::SceneEntity> = self.true_path_entity(epoch, t).into_iter().collect();
+        let mut entities: Vec<fox::SceneEntity> =
+            self.true_path_entity(epoch, t).into_iter().collect();
         entities.extend(self.located_entity(epoch, t));
         entities.push(self.ahead_entity(epoch, t));
         let update = fox::SceneUpdate {

@@ -28,14 +28,14 @@ use control::tracker::{MotionCommand, TrackLimit, Tracker, TrackerEvent, Tracker
 use crate::backend::{BackendInfo, PathJudge, Truth};
 use crate::console::hub::{Responder, StreamEvent};
 use crate::console::protocol::{DebugAction, ErrorCode, Stream, Verb, error_reply, ok_reply};
+use crate::live::tap::{LiveMsg, LiveTap};
+use crate::live::topics::LiveTopic;
 use crate::recording::foxglove_msgs::{self as fox, level};
 use crate::recording::messages::{ReplyRecord, TrackerCall, TrackerInputRecord};
 use crate::recording::naming::utc_stamp;
 use crate::recording::provenance::MetadataRecord;
 use crate::recording::recorder::{RecorderMsg, RecordingFailure};
 use crate::recording::topics::{TISSUE_FRAME, Topic};
-use crate::live::tap::{LiveMsg, LiveTap};
-use crate::live::topics::LiveTopic;
 use crate::recording::trial_file::{Epoch, epoch_ns, epoch_offset_ns};
 use crate::rt::fault::{Fault, FaultKind};
 use crate::rt::flight_recorder::FlightRecorder;
@@ -919,42 +919,42 @@ impl Supervisor {
         let half = placement.yaw_rad / 2.0;
         let [ox, oy, oz] = placement.origin_in_base_m;
         self.emit(Topic::Transforms, status.t_s, |epoch| {
-        let timestamp = epoch.time(status.t_s);
-        let frame = |child: &str, translation: fox::Vector3, rotation: fox::Quaternion| {
-            fox::FrameTransform {
-                timestamp,
-                parent_frame_id: "base".into(),
-                child_frame_id: child.into(),
-                translation,
-                rotation,
+            let timestamp = epoch.time(status.t_s);
+            let frame = |child: &str, translation: fox::Vector3, rotation: fox::Quaternion| {
+                fox::FrameTransform {
+                    timestamp,
+                    parent_frame_id: "base".into(),
+                    child_frame_id: child.into(),
+                    translation,
+                    rotation,
+                }
+            };
+            // The sensor centre is computed in the tissue frame.
+            let sensor_in_tissue = fox::FrameTransform {
+                parent_frame_id: TISSUE_FRAME.into(),
+                ..frame("sensor", v(&sensor), fox::Quaternion::IDENTITY)
+            };
+            fox::FrameTransforms {
+                transforms: vec![
+                    frame(
+                        TISSUE_FRAME,
+                        fox::Vector3 {
+                            x: ox,
+                            y: oy,
+                            z: oz,
+                        },
+                        fox::Quaternion {
+                            x: 0.0,
+                            y: half.sin(),
+                            z: 0.0,
+                            w: half.cos(),
+                        },
+                    ),
+                    frame("gimbal", v(&gimbal.0), fox::Quaternion::IDENTITY),
+                    frame("pivot", v(&pivot), fox::Quaternion::IDENTITY),
+                    sensor_in_tissue,
+                ],
             }
-        };
-        // The sensor centre is computed in the tissue frame.
-        let sensor_in_tissue = fox::FrameTransform {
-            parent_frame_id: TISSUE_FRAME.into(),
-            ..frame("sensor", v(&sensor), fox::Quaternion::IDENTITY)
-        };
-        fox::FrameTransforms {
-            transforms: vec![
-                frame(
-                    TISSUE_FRAME,
-                    fox::Vector3 {
-                        x: ox,
-                        y: oy,
-                        z: oz,
-                    },
-                    fox::Quaternion {
-                        x: 0.0,
-                        y: half.sin(),
-                        z: 0.0,
-                        w: half.cos(),
-                    },
-                ),
-                frame("gimbal", v(&gimbal.0), fox::Quaternion::IDENTITY),
-                frame("pivot", v(&pivot), fox::Quaternion::IDENTITY),
-                sensor_in_tissue,
-            ],
-        }
         });
     }
 
