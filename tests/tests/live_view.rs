@@ -8,7 +8,7 @@ mod e2e;
 
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use e2e::{Setup, T, call, located_until_trial_end, seed, start, wait_state};
 use pulsetrack_tests::foxglove_ws::{FoxgloveClient, Received};
@@ -256,11 +256,9 @@ fn a_demo_trial_shows_its_located_points_live_and_replays_in_the_same_view() {
     fox.subscribe(&["/artery", "/tactile", "/tactile/bandpassed"])
         .expect("subscribe");
     let mut got = Vec::new();
-    loop {
-        match fox.next(Duration::from_secs(30)) {
-            Ok(Some(m)) => got.push(m),
-            Ok(None) | Err(_) => break,
-        }
+    // Until the replay ends and closes the connection (or falls silent).
+    while let Ok(Some(m)) = fox.next(Duration::from_secs(30)) {
+        got.push(m);
     }
     let status = replay.wait().expect("replay exits");
     let mut rest = String::new();

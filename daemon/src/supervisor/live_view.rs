@@ -74,30 +74,38 @@ impl Supervisor {
         self.live_json(LiveTopic::State, t_s, &msg);
     }
 
-    /// Four times a second: the state, the loop's timing and, every `scene_every` beats, the
+    /// Four times a second: the state, the loop's timing and, every fourth beat, the
     /// artery scene again (a client that connects mid-trial sees it without waiting for the
     /// next located point).
     pub(super) fn live_beat(&mut self, status: &ControlStatus) {
-        let Some(live) = self.links.live.as_ref() else {
+        let Some(dropped) = self.links.live.as_ref().map(LiveTap::dropped) else {
             return;
         };
         let t = status.t_s;
+        self.live_beats += 1;
+        // Beats are 250 ms apart: a line every 40 beats (10 s) at most.
+        if dropped > self.live_dropped_logged && self.live_beats.is_multiple_of(40) {
+            tracing::warn!(
+                "live view: {dropped} messages dropped so far ({} new): its publisher fell behind",
+                dropped - self.live_dropped_logged
+            );
+            self.live_dropped_logged = dropped;
+        }
         self.live_state(t);
-        if live.wants(LiveTopic::Loop) {
+        if self.live_for(LiveTopic::Loop).is_some() {
             let timing = LoopTiming {
                 t_s: t,
                 cycles: status.cycle,
                 overruns: status.overruns,
                 loop_dropped: status.dropped,
-                live_dropped: live.dropped(),
+                live_dropped: dropped,
                 period_p50_us: self.timing.map(|p| p.p50_us),
                 period_p99_us: self.timing.map(|p| p.p99_us),
                 period_max_us: self.timing.map(|p| p.max_us),
             };
             self.live_json(LiveTopic::Loop, t, &timing);
         }
-        self.live_beats += 1;
-        if self.live_beats % 4 == 0 {
+        if self.live_beats.is_multiple_of(4) {
             self.live_scene(t);
         }
     }

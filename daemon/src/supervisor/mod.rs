@@ -187,6 +187,8 @@ pub struct Supervisor {
     last_state_beat: Instant,
     /// State beats sent to the live view (it republishes the scene every few).
     live_beats: u64,
+    /// The live view's drop count as last logged.
+    live_dropped_logged: u64,
 }
 
 impl std::fmt::Debug for Supervisor {
@@ -249,6 +251,7 @@ impl Supervisor {
             shutdown: None,
             last_state_beat: Instant::now(),
             live_beats: 0,
+            live_dropped_logged: 0,
         }
     }
 
