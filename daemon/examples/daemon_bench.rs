@@ -40,6 +40,8 @@ fn main() -> Result<(), String> {
     loaded.config.console.socket_path = dir.join("console.sock").display().to_string();
     loaded.config.recording.dir = dir.join("trials").display().to_string();
     loaded.config.console.max_requests_per_s = 1.0e6;
+    // This benchmark measures the daemon as it was before the live view (live_bench has both).
+    loaded.config.live.enabled = false;
     if let config::schema::Backend::Sim(s) = &mut loaded.config.backend {
         s.time_scale = 1.0;
     }

@@ -8,6 +8,7 @@ pub mod backend;
 pub mod cli;
 pub mod console;
 pub mod instance_lock;
+pub mod live;
 pub mod plot;
 pub mod private_fs;
 pub mod pulsetrackd;

@@ -18,7 +18,9 @@ use crate::console::hub::StreamHub;
 use crate::console::protocol::ParseLimits;
 use crate::console::server::{self, ServerLinks, ServerSettings};
 use crate::instance_lock::{InstanceLock, LockError};
+use crate::live::server::{LiveError, LiveServer, LiveSettings};
 use crate::recording::recorder::{Recorder, RecorderMsg, RecorderSettings};
+use crate::recording::trial_file::{Epoch, epoch_offset_ns};
 use crate::rt::control_loop::{ControlLoop, LoopLinks};
 use crate::rt::flight_recorder::FlightRecorder;
 use crate::rt::safety::SafetyLimits;
@@ -142,6 +144,9 @@ pub enum StartError {
     /// Another daemon holds this configuration, or a directory is not the daemon's own.
     #[error(transparent)]
     Lock(#[from] LockError),
+    /// The live view could not start (its port taken, most often).
+    #[error(transparent)]
+    Live(#[from] LiveError),
 }
 
 impl StartError {
@@ -196,6 +201,7 @@ pub struct Daemon {
     recorder: Option<std::thread::JoinHandle<()>>,
     control: Option<LoopThread>,
     server: Option<tokio::task::JoinHandle<()>>,
+    live: Option<LiveServer>,
     socket_path: PathBuf,
     stop_timeout: Duration,
     /// Released last, when the daemon is dropped.
@@ -269,6 +275,17 @@ impl Daemon {
         let heartbeat = Arc::new(AtomicU64::new(0));
         let shared_state = Arc::new(AtomicU8::new(0));
         let hub = StreamHub::new();
+        // Before the loop starts, so that its clock (0 at start) maps onto now.
+        let (live, live_tap) = if c.live.enabled {
+            let epoch = Epoch {
+                offset_ns: epoch_offset_ns(std::time::SystemTime::now(), 0.0),
+            };
+            let settings = LiveSettings::from_config(c, epoch)?;
+            let (server, tap) = LiveServer::start(&settings)?;
+            (Some(server), Some(tap))
+        } else {
+            (None, None)
+        };
 
         let (failure_tx, failure_rx) = crossbeam_channel::bounded(16);
         let recorder = Recorder::new(
@@ -341,6 +358,7 @@ impl Daemon {
                 flight,
                 heartbeat: Arc::clone(&heartbeat),
                 shared_state: Arc::clone(&shared_state),
+                live: live_tap,
             },
             info.clone(),
             opened.judge,
@@ -412,6 +430,7 @@ impl Daemon {
             recorder: Some(recorder),
             control: Some(control),
             server: Some(server),
+            live,
             socket_path,
             stop_timeout,
             _lock: lock,
@@ -420,6 +439,11 @@ impl Daemon {
 
     pub fn socket_path(&self) -> &Path {
         &self.socket_path
+    }
+
+    /// The live view's address (`ws://ADDRESS:PORT`), when it is on.
+    pub fn live_url(&self) -> Option<&str> {
+        self.live.as_ref().map(|l| l.url())
     }
 
     /// Block until SIGTERM or SIGINT; returns which.
@@ -479,6 +503,10 @@ impl Daemon {
             && r.join().is_err()
         {
             problems.push("the recorder thread panicked".into());
+        }
+        // The supervisor (the publisher's only feeder) has stopped: the publisher ends.
+        if let Some(l) = self.live.take() {
+            l.stop();
         }
         let _ = std::fs::remove_file(&self.socket_path);
         if problems.is_empty() {

@@ -29,6 +29,8 @@ fn start_with(dir: &Path, wall_x_m: Option<f64>) -> (Daemon, Client) {
     c.console.max_line_bytes = 1024;
     c.console.max_requests_per_s = 50.0;
     c.realtime.lock_memory = false;
+    // Tests run side by side: any free port for the live view.
+    c.live.port = 0;
     let daemon = Daemon::start_with(
         loaded,
         Parts {

@@ -8,6 +8,7 @@ mod backend;
 mod control_section;
 mod daemon_sections;
 mod instrument;
+mod live_section;
 mod robot;
 mod tracker_section;
 
@@ -20,6 +21,7 @@ pub use control_section::ControlSection;
 pub use daemon_sections::{
     ConsoleSection, OperationSection, RealtimeSection, RecordingSection, SafetySection,
 };
+pub use live_section::{DEFAULT_LIVE_PORT, LiveSection};
 pub use robot::RobotSection;
 pub use tracker_section::TrackerSection;
 
@@ -51,6 +53,9 @@ pub struct Config {
     pub console: ConsoleSection,
     #[serde(default)]
     pub recording: RecordingSection,
+    /// The live view (Foxglove WebSocket); absent: off.
+    #[serde(default)]
+    pub live: LiveSection,
     /// What the gimbal carries; absent: only the arm's own bodies are gravity-compensated.
     #[serde(default)]
     pub instrument: Option<control::pd::gravity::Instrument>,
@@ -79,6 +84,7 @@ impl Validate for Config {
         v.section("realtime", &self.realtime);
         v.section("console", &self.console);
         v.section("recording", &self.recording);
+        v.section("live", &self.live);
         if let Some(i) = &self.instrument {
             v.at("instrument", |v| {
                 instrument::validate(i, &self.robot, &self.control, v);

@@ -14,7 +14,9 @@ use serde_json::{Value, json};
 
 use crate::cli::console::{describe_event, print_summary};
 use crate::console::client::Client;
-use crate::pulsetrackd::{Daemon, LoadedConfig};
+use crate::live::layout::LAYOUT;
+use crate::live::server::LiveError;
+use crate::pulsetrackd::{Daemon, LoadedConfig, StartError};
 use crate::recording::recover;
 use crate::recording::topics::Topic;
 
@@ -106,7 +108,18 @@ fn run_inner(args: &Args) -> Result<bool, String> {
         args.time_scale
     );
     let artery = true_path(&loaded);
-    let daemon = Daemon::start(loaded).map_err(|e| e.to_string())?;
+    let daemon = start_daemon(loaded)?;
+    if let Some(url) = daemon.live_url() {
+        let layout = out.join("pulsetrack-layout.json");
+        let layout = match std::fs::write(&layout, LAYOUT) {
+            Ok(()) => layout.display().to_string(),
+            Err(e) => format!("not written ({}: {e})", layout.display()),
+        };
+        outln!(
+            "live view: {url} (Foxglove: Open connection, Foxglove WebSocket; --time-scale 1 to watch at real time)"
+        );
+        outln!("layout:   {layout} (Foxglove: Layouts, Import from file)");
+    }
     let result = drive(&daemon, &out, wall0, &artery);
     let stopped = daemon.shutdown();
     // The daemon has exited its lock: the demo's private folder can go.
@@ -114,6 +127,20 @@ fn run_inner(args: &Args) -> Result<bool, String> {
     let _ = std::fs::remove_dir(socket_dir());
     stopped.map_err(|e| format!("daemon shutdown: {e}"))?;
     result
+}
+
+/// The daemon on the demo's config; if the live view's port is taken (a daemon already
+/// serving it), on any free port instead.
+fn start_daemon(loaded: LoadedConfig) -> Result<Daemon, String> {
+    match Daemon::start(loaded.clone()) {
+        Err(StartError::Live(LiveError::Bind { addr, source })) => {
+            outln!("live view: {addr} is taken ({source}); using any free port");
+            let mut loaded = loaded;
+            loaded.config.live.port = 0;
+            Daemon::start(loaded).map_err(|e| e.to_string())
+        }
+        r => r.map_err(|e| e.to_string()),
+    }
 }
 
 /// The scene's true artery path, sampled every millimetre, for the top view (mm).

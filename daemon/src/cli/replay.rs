@@ -1,6 +1,7 @@
-//! `pulsetrack replay FILE.mcap --tracker NAME [--json]`: feed a recorded trial to a tracker
-//! offline and print the points it locates, compared with those recorded live
-//! (docs/foxglove.md, "Offline replay").
+//! `pulsetrack replay FILE.mcap [--tracker NAME] [--json]`: feed a recorded trial to a
+//! tracker offline and print the points it locates, compared with those recorded live
+//! (docs/foxglove.md, "Offline replay"); `pulsetrack replay FILE.mcap --live [--speed X]`:
+//! serve it on the live view instead ("Replaying a trial in the live view").
 
 use crate::cli::stdout::outln;
 
@@ -9,6 +10,7 @@ use std::process::ExitCode;
 
 use serde_json::json;
 
+use crate::live;
 use crate::recording::recover;
 use crate::recording::replay::{self, Located};
 
@@ -24,8 +26,18 @@ pub struct Args {
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// One JSON document on stdout instead of a table.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "live")]
     pub json: bool,
+    /// Serve the trial on the live view (Foxglove WebSocket) instead of running a tracker:
+    /// it starts when a client subscribes and ends with the recording.
+    #[arg(long, conflicts_with = "tracker")]
+    pub live: bool,
+    /// With --live: times real time.
+    #[arg(long, default_value_t = 1.0, requires = "live")]
+    pub speed: f64,
+    /// With --live: the port (default: the configuration's live.port; 0 takes any free one).
+    #[arg(long, requires = "live")]
+    pub port: Option<u16>,
 }
 
 pub fn run(args: &Args) -> ExitCode {
@@ -39,6 +51,9 @@ pub fn run(args: &Args) -> ExitCode {
 }
 
 fn run_inner(args: &Args) -> Result<(), String> {
+    if args.live {
+        return run_live(args);
+    }
     let back = recover::read(&args.file).map_err(|e| e.to_string())?;
     let mut rec = replay::recorded(&back).map_err(|e| format!("{}: {e}", args.file.display()))?;
     let fallback = crate::pulsetrackd::LoadedConfig::load(args.config.as_deref())
@@ -134,4 +149,56 @@ fn row(i: usize, p: &Located) -> String {
         p.amplitude_n * 1e3,
         if p.seed { "yes" } else { "" }
     )
+}
+
+/// Serve the trial on the live view, from the first subscription to its end.
+fn run_live(args: &Args) -> Result<(), String> {
+    if !(args.speed.is_finite() && (0.01..=1000.0).contains(&args.speed)) {
+        return Err(format!("--speed {} must be in 0.01..1000", args.speed));
+    }
+    let back = recover::read(&args.file).map_err(|e| e.to_string())?;
+    let loaded = crate::pulsetrackd::LoadedConfig::load(args.config.as_deref())
+        .map_err(|e| e.to_string())?;
+    let epoch = live::replay::epoch_of(&back).ok_or_else(|| {
+        format!(
+            "{}: no tactile frame with a time: nothing to replay",
+            args.file.display()
+        )
+    })?;
+    let mut settings = live::server::LiveSettings::from_config(&loaded.config, epoch)
+        .map_err(|e| e.to_string())?;
+    settings.name = format!("pulsetrack replay {}", args.file.display());
+    if let Some(p) = args.port {
+        settings.port = p;
+    }
+    let (server, tap) = live::server::LiveServer::start(&settings).map_err(|e| e.to_string())?;
+    let schedule = live::replay::schedule(&back);
+    outln!(
+        "{}: {} messages; open {} in Foxglove (layout: docs/foxglove/pulsetrack-layout.json); the replay starts when a client subscribes",
+        args.file.display(),
+        schedule.len(),
+        server.url()
+    );
+    while !tap.anyone_subscribed() {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    // The rest of a client's subscriptions follow its first within moments.
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    outln!("replaying at {}x real time", args.speed);
+    let report = live::replay::serve(&schedule, &tap, args.speed);
+    drop(tap);
+    // Let the publisher empty its queue and the clients their backlogs before closing.
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    server.stop();
+    outln!(
+        "replayed {} messages over {:.1} s of recording{}",
+        report.messages,
+        report.span_s,
+        if report.skipped.is_empty() {
+            String::new()
+        } else {
+            format!("; not on the live view: {:?}", report.skipped)
+        }
+    );
+    Ok(())
 }

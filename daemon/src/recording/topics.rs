@@ -106,7 +106,7 @@ impl Topic {
 }
 
 /// The draft 2020-12 schema of `T`, titled with the schema's name.
-fn schema_of<T: JsonSchema>(title: &str) -> String {
+pub fn schema_of<T: JsonSchema>(title: &str) -> String {
     let mut schema = schemars::schema_for!(T);
     schema.insert("title".into(), title.into());
     serde_json::to_string(&schema).unwrap_or_else(|_| "{}".into())

@@ -66,6 +66,25 @@ pub fn epoch_ns(epoch_offset_ns: i128, t_s: f64) -> u64 {
     u64::try_from((epoch_offset_ns + t_ns).max(0)).unwrap_or(u64::MAX)
 }
 
+/// A mapping of daemon time onto the Unix epoch: the open trial's (its file's log times) or
+/// the live view's (fixed when the daemon starts, so its timeline never runs backwards).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Epoch {
+    pub offset_ns: i128,
+}
+
+impl Epoch {
+    /// Unix ns of daemon time `t_s`.
+    pub fn ns(&self, t_s: f64) -> u64 {
+        epoch_ns(self.offset_ns, t_s)
+    }
+
+    /// Daemon time `t_s` as a Foxglove time.
+    pub fn time(&self, t_s: f64) -> crate::recording::foxglove_msgs::Time {
+        crate::recording::foxglove_msgs::Time::from_ns(self.ns(t_s))
+    }
+}
+
 /// The offset that puts daemon time `t_s` at the wall-clock instant `now`.
 pub fn epoch_offset_ns(now: std::time::SystemTime, t_s: f64) -> i128 {
     let wall = now

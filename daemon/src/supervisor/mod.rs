@@ -5,6 +5,8 @@
 //! motion commands to the loop. Every reply and stream event leaves through the recorder, so
 //! that what is acknowledged is on disk first.
 
+mod artery_scene;
+mod live_view;
 mod report;
 mod requests;
 pub mod state;
@@ -27,13 +29,15 @@ use control::tracker::{MotionCommand, TrackLimit, Tracker, TrackerEvent, Tracker
 use crate::backend::{BackendInfo, PathJudge, Truth};
 use crate::console::hub::{Responder, StreamEvent};
 use crate::console::protocol::{DebugAction, ErrorCode, Stream, Verb, error_reply, ok_reply};
+use crate::live::tap::{LiveMsg, LiveTap};
+use crate::live::topics::LiveTopic;
 use crate::recording::foxglove_msgs::{self as fox, level};
 use crate::recording::messages::{ReplyRecord, TrackerCall, TrackerInputRecord};
 use crate::recording::naming::utc_stamp;
 use crate::recording::provenance::MetadataRecord;
 use crate::recording::recorder::{RecorderMsg, RecordingFailure};
 use crate::recording::topics::{TISSUE_FRAME, Topic};
-use crate::recording::trial_file::{epoch_ns, epoch_offset_ns};
+use crate::recording::trial_file::{Epoch, epoch_ns, epoch_offset_ns};
 use crate::rt::fault::{Fault, FaultKind};
 use crate::rt::flight_recorder::FlightRecorder;
 use crate::rt::link::{
@@ -108,6 +112,8 @@ pub struct SupervisorLinks {
     pub heartbeat: Arc<AtomicU64>,
     /// The operating state for readers outside the supervisor (the console's hello).
     pub shared_state: Arc<AtomicU8>,
+    /// The live view's queue (`None`: the live view is off).
+    pub live: Option<LiveTap>,
 }
 
 /// What a command sent to the loop was for.
@@ -155,6 +161,8 @@ pub struct Supervisor {
     links: SupervisorLinks,
     info: BackendInfo,
     judge: Option<Box<dyn PathJudge>>,
+    /// The simulator's true artery course, sampled once (empty off the sim).
+    true_path: Vec<SurfacePoint>,
     factory: TrackerFactory,
     state: OpState,
     fault: Option<(Fault, Option<PathBuf>)>,
@@ -181,6 +189,10 @@ pub struct Supervisor {
     frames_seen: u64,
     shutdown: Option<Shutdown>,
     last_state_beat: Instant,
+    /// State beats sent to the live view (it republishes the scene every few).
+    live_beats: u64,
+    /// The live view's drop count as last logged.
+    live_dropped_logged: u64,
 }
 
 impl std::fmt::Debug for Supervisor {
@@ -216,10 +228,12 @@ impl Supervisor {
         links
             .shared_state
             .store(state_code(OpState::Disabled), Ordering::Release);
+        let true_path = judge.as_ref().map(|j| j.path_points()).unwrap_or_default();
         Self {
             s,
             links,
             info,
+            true_path,
             judge,
             factory,
             state: OpState::Disabled,
@@ -241,6 +255,8 @@ impl Supervisor {
             frames_seen: 0,
             shutdown: None,
             last_state_beat: Instant::now(),
+            live_beats: 0,
+            live_dropped_logged: 0,
         }
     }
 
@@ -310,6 +326,12 @@ impl Supervisor {
     /// (`try_send`); everything else waits for room, so that nothing later acknowledged as
     /// durable can be missing from the file.
     fn record(&self, topic: Topic, t_s: f64, v: &Value) {
+        self.record_trial(topic, t_s, v);
+        self.live_json(LiveTopic::Recorded(topic), t_s, v);
+    }
+
+    /// Record into the open trial only.
+    fn record_trial(&self, topic: Topic, t_s: f64, v: &Value) {
         if self.trial.is_none() {
             return;
         }
@@ -325,9 +347,9 @@ impl Supervisor {
         }
     }
 
-    /// Record a typed message into the open trial.
+    /// Record a typed message into the open trial and publish it live.
     fn record_as<T: serde::Serialize>(&self, topic: Topic, t_s: f64, v: &T) {
-        if self.trial.is_none() {
+        if !self.wanted(topic) {
             return;
         }
         match serde_json::to_value(v) {
@@ -336,26 +358,44 @@ impl Supervisor {
         }
     }
 
-    /// Daemon time `t_s` as a Foxglove time on the open trial's epoch.
-    fn fox_time(&self, t_s: f64) -> fox::Time {
-        let offset = self.trial.as_ref().map(|t| t.epoch_offset_ns).unwrap_or(0);
-        fox::Time::from_ns(epoch_ns(offset, t_s))
+    /// Someone takes `topic`: the open trial's file, or a live subscriber.
+    fn wanted(&self, topic: Topic) -> bool {
+        self.trial.is_some()
+            || self
+                .links
+                .live
+                .as_ref()
+                .is_some_and(|l| l.wants(LiveTopic::Recorded(topic)))
     }
 
-    /// A line on the trial's `/log` (foxglove.Log).
-    fn log_line(&self, t_s: f64, level: u8, message: String) {
-        if self.trial.is_none() {
-            return;
+    /// Record into the open trial and publish live a message that carries its own Foxglove
+    /// times: built once per clock (the trial's file and the live view keep their own), by
+    /// the same builder.
+    fn emit<T: serde::Serialize>(&self, topic: Topic, t_s: f64, build: impl Fn(Epoch) -> T) {
+        if let Some(trial) = self.trial.as_ref() {
+            let epoch = Epoch {
+                offset_ns: trial.epoch_offset_ns,
+            };
+            match serde_json::to_value(build(epoch)) {
+                Ok(v) => self.record_trial(topic, t_s, &v),
+                Err(e) => tracing::error!("cannot serialize a {} record: {e}", topic.name()),
+            }
         }
-        let line = fox::Log {
-            timestamp: self.fox_time(t_s),
+        if let Some(live) = self.live_for(LiveTopic::Recorded(topic)) {
+            self.offer_json(live, LiveTopic::Recorded(topic), t_s, &build(live.epoch()));
+        }
+    }
+
+    /// A line on `/log` (foxglove.Log), in the trial's file and live.
+    fn log_line(&self, t_s: f64, level: u8, message: String) {
+        self.emit(Topic::Log, t_s, |epoch| fox::Log {
+            timestamp: epoch.time(t_s),
             level,
-            message,
+            message: message.clone(),
             name: "pulsetrackd".into(),
             file: String::new(),
             line: 0,
-        };
-        self.record_as(Topic::Log, t_s, &line);
+        });
     }
 
     /// Record a call into the trial's tracker (other than a frame), in order with the
@@ -474,6 +514,7 @@ impl Supervisor {
             level::INFO
         };
         self.log_line(t, lvl, format!("state {} -> {}", from.as_str(), s.as_str()));
+        self.live_state(t);
         self.publish(Stream::State, 0, &v, false);
     }
 
@@ -545,80 +586,8 @@ impl Supervisor {
         }
         self.log_line(t, level::INFO, format!("trial {id} started"));
         self.record_true_path(t);
+        self.live_scene(t);
         self.publish(Stream::Trials, 0, &v, true);
-    }
-
-    /// The simulated artery's true course, once per trial, as a line in `/artery`.
-    fn record_true_path(&self, t: f64) {
-        let Some(points) = self.judge.as_ref().map(|j| j.path_points()) else {
-            return;
-        };
-        if points.is_empty() {
-            return;
-        }
-        let mut e = fox::SceneEntity::new(self.fox_time(t), TISSUE_FRAME, "true_path");
-        e.lines.push(fox::LinePrimitive {
-            kind: 0,
-            pose: fox::Pose::at_surface(0.0, 0.0),
-            thickness: 0.0005,
-            scale_invariant: false,
-            points: points
-                .iter()
-                .map(|p| fox::Vector3 {
-                    x: p.x_m,
-                    y: 0.0,
-                    z: p.z_m,
-                })
-                .collect(),
-            color: fox::Color {
-                r: 0.9,
-                g: 0.2,
-                b: 0.2,
-                a: 0.8,
-            },
-            colors: Vec::new(),
-            indices: Vec::new(),
-        });
-        self.record_as(
-            Topic::Artery,
-            t,
-            &fox::SceneUpdate {
-                deletions: Vec::new(),
-                entities: vec![e],
-            },
-        );
-    }
-
-    /// The located points so far, as spheres in `/artery` (the entity is replaced each time).
-    fn record_located_scene(&self, t: f64) {
-        let Some(trial) = self.trial.as_ref() else {
-            return;
-        };
-        let mut e = fox::SceneEntity::new(self.fox_time(t), TISSUE_FRAME, "located");
-        for p in trial.located.iter().map(|r| &r.point) {
-            let (r, g, b) = if p.seed {
-                (0.2, 0.5, 1.0)
-            } else {
-                (0.1, 0.9, 0.3)
-            };
-            e.spheres.push(fox::SpherePrimitive {
-                pose: fox::Pose::at_surface(p.x_m, p.z_m),
-                size: fox::Vector3 {
-                    x: 0.0015,
-                    y: 0.0015,
-                    z: 0.0015,
-                },
-                color: fox::Color { r, g, b, a: 1.0 },
-            });
-        }
-        self.record_as(
-            Topic::Artery,
-            t,
-            &fox::SceneUpdate {
-                deletions: Vec::new(),
-                entities: vec![e],
-            },
-        );
     }
 
     fn end_trial(&mut self, end: TrialEnd) {
@@ -645,6 +614,14 @@ impl Supervisor {
             json: ev.to_string().into_bytes(),
         });
         tracing::info!("trial {} ended: {}", trial.id, end.as_str());
+        // The trial is closed: these reach the live view only (the file gets its own below).
+        self.live_json(LiveTopic::Recorded(Topic::Events), t, &ev);
+        self.log_line(
+            t,
+            level::INFO,
+            format!("trial {} ended: {}", trial.id, end.as_str()),
+        );
+        self.live_period(None);
         let line = fox::Log {
             timestamp: fox::Time::from_ns(epoch_ns(trial.epoch_offset_ns, t)),
             level: level::INFO,
@@ -907,25 +884,23 @@ impl Supervisor {
         match s {
             LoopSample::Joints { status, truth } => {
                 self.truth = truth;
-                if self.trial.is_some() {
-                    self.record_as(
-                        Topic::Joints,
+                self.record_as(
+                    Topic::Joints,
+                    status.t_s,
+                    &report::joint_sample(&status, self.state),
+                );
+                self.record_frame_tree(&status);
+                if status.sensor.is_finite() {
+                    self.record_pose(
+                        Topic::SensorBelieved,
                         status.t_s,
-                        &report::joint_sample(&status, self.state),
+                        status.sensor.x_m,
+                        status.sensor.z_m,
                     );
-                    self.record_frame_tree(&status);
-                    if status.sensor.is_finite() {
-                        self.record_pose(
-                            Topic::SensorBelieved,
-                            status.t_s,
-                            status.sensor.x_m,
-                            status.sensor.z_m,
-                        );
-                    }
-                    if let Some(t) = truth {
-                        self.record_as(Topic::Truth, t.t_s, &t.sample());
-                        self.record_pose(Topic::SensorTrue, t.t_s, t.sensor_x_m, t.sensor_z_m);
-                    }
+                }
+                if let Some(t) = truth {
+                    self.record_as(Topic::Truth, t.t_s, &t.sample());
+                    self.record_pose(Topic::SensorTrue, t.t_s, t.sensor_x_m, t.sensor_z_m);
                 }
             }
             LoopSample::Frame(f) => self.on_frame(f),
@@ -941,6 +916,9 @@ impl Supervisor {
         let Some(arm) = self.s.arm.as_ref() else {
             return;
         };
+        if !self.wanted(Topic::Transforms) {
+            return;
+        }
         let q = &status.position_rad;
         let (Ok(gimbal), Ok(sensor)) = (
             phantom::forward(arm.phantom(), q),
@@ -950,62 +928,62 @@ impl Supervisor {
         };
         let pivot = pivot::pivot_point(arm.pivot()).0;
         let placement = arm.placement();
-        let timestamp = self.fox_time(status.t_s);
         let v = |p: &nalgebra::Point3<f64>| fox::Vector3 {
             x: p.x,
             y: p.y,
             z: p.z,
         };
         let half = placement.yaw_rad / 2.0;
-        let frame = |child: &str, translation: fox::Vector3, rotation: fox::Quaternion| {
-            fox::FrameTransform {
-                timestamp,
-                parent_frame_id: "base".into(),
-                child_frame_id: child.into(),
-                translation,
-                rotation,
-            }
-        };
-        // The sensor centre is computed in the tissue frame.
-        let sensor_in_tissue = fox::FrameTransform {
-            parent_frame_id: TISSUE_FRAME.into(),
-            ..frame("sensor", v(&sensor), fox::Quaternion::IDENTITY)
-        };
         let [ox, oy, oz] = placement.origin_in_base_m;
-        let tree = fox::FrameTransforms {
-            transforms: vec![
-                frame(
-                    TISSUE_FRAME,
-                    fox::Vector3 {
-                        x: ox,
-                        y: oy,
-                        z: oz,
-                    },
-                    fox::Quaternion {
-                        x: 0.0,
-                        y: half.sin(),
-                        z: 0.0,
-                        w: half.cos(),
-                    },
-                ),
-                frame("gimbal", v(&gimbal.0), fox::Quaternion::IDENTITY),
-                frame("pivot", v(&pivot), fox::Quaternion::IDENTITY),
-                sensor_in_tissue,
-            ],
-        };
-        self.record_as(Topic::Transforms, status.t_s, &tree);
+        self.emit(Topic::Transforms, status.t_s, |epoch| {
+            let timestamp = epoch.time(status.t_s);
+            let frame = |child: &str, translation: fox::Vector3, rotation: fox::Quaternion| {
+                fox::FrameTransform {
+                    timestamp,
+                    parent_frame_id: "base".into(),
+                    child_frame_id: child.into(),
+                    translation,
+                    rotation,
+                }
+            };
+            // The sensor centre is computed in the tissue frame.
+            let sensor_in_tissue = fox::FrameTransform {
+                parent_frame_id: TISSUE_FRAME.into(),
+                ..frame("sensor", v(&sensor), fox::Quaternion::IDENTITY)
+            };
+            fox::FrameTransforms {
+                transforms: vec![
+                    frame(
+                        TISSUE_FRAME,
+                        fox::Vector3 {
+                            x: ox,
+                            y: oy,
+                            z: oz,
+                        },
+                        fox::Quaternion {
+                            x: 0.0,
+                            y: half.sin(),
+                            z: 0.0,
+                            w: half.cos(),
+                        },
+                    ),
+                    frame("gimbal", v(&gimbal.0), fox::Quaternion::IDENTITY),
+                    frame("pivot", v(&pivot), fox::Quaternion::IDENTITY),
+                    sensor_in_tissue,
+                ],
+            }
+        });
     }
 
     fn record_pose(&self, topic: Topic, t_s: f64, x_m: f64, z_m: f64) {
-        self.record_as(
-            topic,
-            t_s,
-            &fox::PoseInFrame {
-                timestamp: self.fox_time(t_s),
-                frame_id: TISSUE_FRAME.into(),
-                pose: fox::Pose::at_surface(x_m, z_m),
-            },
-        );
+        if !self.wanted(topic) {
+            return;
+        }
+        self.emit(topic, t_s, |epoch| fox::PoseInFrame {
+            timestamp: epoch.time(t_s),
+            frame_id: TISSUE_FRAME.into(),
+            pose: fox::Pose::at_surface(x_m, z_m),
+        });
     }
 
     fn on_tick(&mut self) {
@@ -1047,6 +1025,7 @@ impl Supervisor {
             if let Some(st) = self.links.status.read() {
                 let v = report::state_beat(&st, self.state, self.trial.as_ref());
                 self.publish(Stream::State, 0, &v, false);
+                self.live_beat(&st);
             }
         }
     }
@@ -1130,6 +1109,9 @@ impl Supervisor {
             && let Value::Object(o) = f
         {
             o.insert("detail".into(), Value::from(d.as_str()));
+        }
+        if let Value::Object(o) = &mut v {
+            o.insert("live".into(), self.live_status());
         }
         v
     }

@@ -23,8 +23,9 @@ impl Supervisor {
             self.approach.push(f.sensor);
         }
         let sample = report::tactile_sample(&f, fed.then_some(settled));
+        self.live_tactile(&sample);
         let mut ev = serde_json::to_value(&sample).unwrap_or_default();
-        self.record(Topic::Tactile, f.frame.t_s, &ev);
+        self.record_trial(Topic::Tactile, f.frame.t_s, &ev);
         if let Value::Object(o) = &mut ev {
             o.insert("event".into(), Value::from("tactile"));
         }
@@ -120,6 +121,7 @@ impl Supervisor {
 
     pub(super) fn tracker_move(&mut self, target: SurfacePoint, speed_m_s: f64) {
         self.tracker_target = Some(target);
+        self.live_scene(self.now_s());
         if !self.in_workspace(target) {
             tracing::info!(
                 "tracker target ({:.4}, {:.4}) m is outside the workspace",
@@ -193,6 +195,7 @@ impl Supervisor {
                 if let Some(t) = self.trial.as_mut() {
                     t.pulse_period_s = Some(period_s);
                 }
+                self.live_period(Some(period_s));
                 (
                     json!({"event": "detection", "kind": "pulse", "t_s": t_s, "period_s": period_s}),
                     false,
