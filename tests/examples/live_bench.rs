@@ -11,26 +11,10 @@ use std::time::Duration;
 
 use daemon::console::client::Client;
 use daemon::pulsetrackd::{Daemon, LoadedConfig};
-use pulsetrack_tests::foxglove_ws::FoxgloveClient;
+use pulsetrack_tests::foxglove_ws::{FoxgloveClient, LIVE_TOPICS as ALL_TOPICS};
 use serde_json::{Value, json};
 
 const T: Duration = Duration::from_secs(10);
-
-const ALL_TOPICS: [&str; 13] = [
-    "/joints",
-    "/tactile",
-    "/events",
-    "/truth",
-    "/log",
-    "/sensor/believed",
-    "/sensor/true",
-    "/artery",
-    "/tf",
-    "/tactile/bandpassed",
-    "/pulse",
-    "/loop",
-    "/state",
-];
 
 fn phase(seconds: f64, live: bool) -> Result<Value, String> {
     let mut loaded = LoadedConfig::load(None).map_err(|e| e.to_string())?;

@@ -245,3 +245,20 @@ impl FoxgloveClient {
         }
     }
 }
+
+/// Every channel the daemon's live view advertises (docs/foxglove.md).
+pub const LIVE_TOPICS: [&str; 13] = [
+    "/joints",
+    "/tactile",
+    "/events",
+    "/truth",
+    "/log",
+    "/sensor/believed",
+    "/sensor/true",
+    "/artery",
+    "/tf",
+    "/tactile/bandpassed",
+    "/pulse",
+    "/loop",
+    "/state",
+];

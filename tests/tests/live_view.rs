@@ -11,24 +11,8 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use e2e::{Setup, T, call, located_until_trial_end, seed, start, wait_state};
-use pulsetrack_tests::foxglove_ws::{FoxgloveClient, Received};
+use pulsetrack_tests::foxglove_ws::{FoxgloveClient, LIVE_TOPICS as ALL_TOPICS, Received};
 use serde_json::{Value, json};
-
-const ALL_TOPICS: [&str; 13] = [
-    "/joints",
-    "/tactile",
-    "/events",
-    "/truth",
-    "/log",
-    "/sensor/believed",
-    "/sensor/true",
-    "/artery",
-    "/tf",
-    "/tactile/bandpassed",
-    "/pulse",
-    "/loop",
-    "/state",
-];
 
 fn live_url(c: &mut daemon::console::client::Client) -> String {
     let st = call(c, "status", json!({}));

@@ -41,24 +41,34 @@ fn start_seating(dir: &std::path::Path) -> (e2e::Running, Client) {
     start_with_config(dir, config)
 }
 
+/// Subscribe to what the tests wait for, power the arm; the scene's placements.
+fn enable_and_subscribe(c: &mut Client) -> [(f64, f64); 2] {
+    call(
+        c,
+        "subscribe",
+        json!({"streams": ["state", "detections", "faults", "trials"]}),
+    );
+    let (placements, _) = scene(c);
+    call(c, "enable", json!({}));
+    placements
+}
+
+/// Move onto `at` and wait until the arm holds there; where the sensor then is.
+fn move_onto(c: &mut Client, at: (f64, f64)) -> (f64, f64) {
+    call(c, "move", json!({"x_m": at.0, "z_m": at.1}));
+    wait_state(c, "holding");
+    sensor(c)
+}
+
 #[test]
 fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
     let dir = tempfile::tempdir().expect("tmp");
     let (daemon, mut c) = start_seating(dir.path());
-    call(
-        &mut c,
-        "subscribe",
-        json!({"streams": ["state", "detections", "faults", "trials"]}),
-    );
-    let (placements, _) = scene(&mut c);
-    call(&mut c, "enable", json!({}));
+    let placements = enable_and_subscribe(&mut c);
 
     // The first placement, then its mark: the arm leaves the placement by most of the
     // stroke (the seed's PD stops short of a move's end) and comes back before the result.
-    let (x0, z0) = placements[0];
-    call(&mut c, "move", json!({"x_m": x0, "z_m": z0}));
-    wait_state(&mut c, "holding");
-    let home = sensor(&mut c);
+    let home = move_onto(&mut c, placements[0]);
     call(&mut c, "mark", json!({}));
     let mut farthest: f64 = 0.0;
     let result = loop {
@@ -85,8 +95,7 @@ fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
     // The second placement is marked where it is (no stroke), then a short track.
     let (x1, z1) = placements[1];
     wait_state(&mut c, "holding");
-    call(&mut c, "move", json!({"x_m": x1, "z_m": z1}));
-    wait_state(&mut c, "holding");
+    move_onto(&mut c, (x1, z1));
     call(&mut c, "mark", json!({}));
     let e = wait_event(&mut c, "the second mark's result", |e| {
         e["event"] == "detection" && (e["kind"] == "located" || e["kind"] == "missed")
@@ -118,17 +127,8 @@ fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
 fn stop_during_the_stroke_holds_the_arm_and_the_next_mark_needs_no_restart() {
     let dir = tempfile::tempdir().expect("tmp");
     let (daemon, mut c) = start_seating(dir.path());
-    call(
-        &mut c,
-        "subscribe",
-        json!({"streams": ["state", "detections", "faults", "trials"]}),
-    );
-    let (placements, _) = scene(&mut c);
-    call(&mut c, "enable", json!({}));
-    let (x0, z0) = placements[0];
-    call(&mut c, "move", json!({"x_m": x0, "z_m": z0}));
-    wait_state(&mut c, "holding");
-    let home = sensor(&mut c);
+    let placements = enable_and_subscribe(&mut c);
+    let home = move_onto(&mut c, placements[0]);
     call(&mut c, "mark", json!({}));
     // Stop once the stroke is under way.
     let deadline = std::time::Instant::now() + Duration::from_secs(120);
@@ -157,8 +157,7 @@ fn stop_during_the_stroke_holds_the_arm_and_the_next_mark_needs_no_restart() {
         "the arm moved from {a:?} to {b:?} after stop"
     );
     // No restart: back onto the placement, and a new trial's first mark seats and finds it.
-    call(&mut c, "move", json!({"x_m": x0, "z_m": z0}));
-    wait_state(&mut c, "holding");
+    move_onto(&mut c, placements[0]);
     call(&mut c, "mark", json!({}));
     let e = wait_event(&mut c, "the new mark's result", |e| {
         e["event"] == "detection" && (e["kind"] == "located" || e["kind"] == "missed")
