@@ -24,6 +24,7 @@ use super::drag::Drag;
 use super::history::History;
 use super::params::BeatSlideParams;
 use super::path_filter::{Observation, PathFilter, PathFilterError, PathFilterSettings};
+use super::tissue_motion::TissueMotion;
 use crate::classify::{ClassifyParams, Kind, Window as ClassifyWindow};
 use crate::frames::SurfacePoint;
 use crate::sensor::ArrayGeometry;
@@ -210,6 +211,8 @@ pub struct BeatSlide {
     seed_points: Vec<SurfacePoint>,
     seed_sensors: Vec<SurfacePoint>,
     filter: Option<PathFilter>,
+    /// The artery's motion across its course that the path model does not explain.
+    tissue: TissueMotion,
     /// The artery as re-found back at the last fix, while probing ahead of it.
     anchor: Option<Observation>,
     last_fix: Option<SurfacePoint>,
@@ -228,6 +231,11 @@ pub struct BeatSlide {
 
 /// Most seed points kept.
 const MAX_SEEDS: usize = 16;
+/// Largest tissue motion SD added to a fix's: with the gate at 4 SD, more would let in a
+/// pulse 8 mm beside the course.
+const MAX_TISSUE_SD_M: f64 = 0.002;
+/// Tissue motion beyond which a window of several beats is not reported as a point, m.
+const SMEAR_SD_M: f64 = 0.0005;
 
 impl BeatSlide {
     pub const NAME: &'static str = "beatslide";
@@ -258,6 +266,7 @@ impl BeatSlide {
             seed_points: Vec::with_capacity(MAX_SEEDS),
             seed_sensors: Vec::with_capacity(MAX_SEEDS),
             filter: None,
+            tissue: TissueMotion::new(MAX_TISSUE_SD_M),
             anchor: None,
             last_fix: None,
             path_length_m: 0.0,
@@ -487,6 +496,14 @@ impl BeatSlide {
         fit.offset_se_m
             .hypot(self.params.fix_floor_m)
             .hypot(outside)
+    }
+
+    /// A window longer than a beat averages the artery over the tissue's motion: it gives
+    /// where the artery lay on average, not where it lay at any one time. Once the tissue
+    /// is seen to move, such a fix steers the track but is not reported as a point.
+    fn smeared(&self, window_s: f64) -> bool {
+        let period = self.pulse.map_or(1.0, |p| p.clock.period_s());
+        self.tissue.sd_m() > SMEAR_SD_M && window_s > 1.5 * period
     }
 
     fn record(&mut self, point: SurfacePoint) {
@@ -821,6 +838,7 @@ impl Tracker for BeatSlide {
         let filter = PathFilter::from_observations(&self.seeds, heading, settings)
             .map_err(|_| too_close.clone())?;
         self.filter = Some(filter);
+        self.tissue.clear();
         self.limit = limit;
         // The length tracked counts from the first placement. Between the marks it is
         // measured on the placements, not on the located points: both marks were made at
@@ -993,7 +1011,7 @@ mod tests {
                 sd_m: base.fix_sd(&fix(offset_m).kernel),
                 lag_dir: [1.0, 0.0],
             };
-            f.update(&o).ok()
+            f.update(&o).ok().map(|s| s.nis())
         };
         // An offset the gate passes but the model finds surprising (NIS between 4 and the
         // gate's 16), and one it expects.
@@ -1022,6 +1040,35 @@ mod tests {
     }
 
     /// `seeded()` with a pulse whose usual amplitude is `usual_n`, one beat per fix.
+    #[test]
+    fn moving_tissue_softens_the_fixes_and_withholds_windows_of_several_beats() {
+        let base = seeded();
+        let mut moving = base.clone();
+        for k in 0..9 {
+            let innovation = if k % 2 == 0 { 0.002 } else { -0.002 };
+            moving.tissue.push(innovation, 1e-6);
+        }
+        assert!(moving.tissue.sd_m() > 0.0015);
+        // The same fix off the predicted path: the still model moves its course most of
+        // the way to it, the moving one less.
+        let off = 0.0015;
+        let mut still = base.clone();
+        assert!(still.accept(&fix(off), false).is_ok());
+        assert!(moving.accept(&fix(off), false).is_ok());
+        let (still_z, moving_z) = (
+            still.filter.expect("model").origin().z_m,
+            moving.filter.expect("model").origin().z_m,
+        );
+        assert!(
+            still_z > 1.5 * moving_z && moving_z > 0.0,
+            "still {still_z}, moving {moving_z}"
+        );
+        // A window of one beat is reported either way; one of several only while the
+        // tissue stays still.
+        assert!(!base.smeared(4.0) && !base.smeared(1.0));
+        assert!(moving.smeared(4.0) && !moving.smeared(1.0));
+    }
+
     fn with_pulse(usual_n: f64) -> BeatSlide {
         let mut t = seeded();
         let mut template = Waveform::zeros();

@@ -14,10 +14,14 @@ mod history;
 mod machine;
 mod params;
 pub mod path_filter;
+mod tissue_motion;
 
 pub use beat_fix::{BeatFix, BeatMiss, SpatialPrior, analyse_window, spatial_weights};
 pub use drag::Drag;
 pub use history::{History, Window};
 pub use machine::{BeatSlide, InvalidParams, Miss};
 pub use params::BeatSlideParams;
-pub use path_filter::{Observation, PathFilter, PathFilterError, PathFilterSettings, Prediction};
+pub use path_filter::{
+    Observation, PathFilter, PathFilterError, PathFilterSettings, Prediction, Surprise,
+};
+pub use tissue_motion::TissueMotion;

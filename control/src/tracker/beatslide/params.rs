@@ -61,7 +61,9 @@ pub struct BeatSlideParams {
     pub lag_prior_m: f64,
     pub lag_prior_sd_m: f64,
     /// How fast that lag may change along the path, m per √m (the compliance depends on
-    /// the insertion depth).
+    /// the insertion depth). Slow and tight: a lag left free takes up the artery's own
+    /// motion across the course (breathing), reaching 10 mm against a true 2-5 mm
+    /// (docs/tracker-beatslide.md, "Tissue motion").
     pub lag_walk: f64,
     /// Added in quadrature to each fix's standard error, m: what the fit cannot see
     /// (the sensor's compliance, the artery moving on the array within a window).
@@ -109,8 +111,8 @@ impl Default for BeatSlideParams {
             curvature_prior_per_m: 1.0 / 0.06,
             curvature_walk: 45.0,
             lag_prior_m: 0.0045,
-            lag_prior_sd_m: 0.002,
-            lag_walk: 0.01,
+            lag_prior_sd_m: 0.001,
+            lag_walk: 0.003,
             fix_floor_m: 0.001,
             // The seed's bench as simulated (docs/tracker-beatslide.md, "Tilt deflection").
             tilt_deflection: 0.027,

@@ -87,6 +87,22 @@ pub struct Observation {
     pub lag_dir: [f64; 2],
 }
 
+/// How far a fix fell from the prediction, against how far the model expected.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Surprise {
+    /// Lateral distance from the predicted path, m.
+    pub innovation_m: f64,
+    /// Its expected variance: the path's and the fix's own, m².
+    pub var_m2: f64,
+}
+
+impl Surprise {
+    /// Normalized innovation squared: about 1 when the model is right.
+    pub fn nis(&self) -> f64 {
+        self.innovation_m * self.innovation_m / self.var_m2
+    }
+}
+
 /// What the filter predicts at some distance along the path.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Prediction {
@@ -219,9 +235,8 @@ impl PathFilter {
     }
 
     /// Fold in a fix: the frame moves to the fix's place on the path. Refused (and the
-    /// filter unchanged) outside the gate. Returns the normalized innovation squared (how
-    /// surprising the fix was: about 1 when the model is right).
-    pub fn update(&mut self, o: &Observation) -> Result<f64, PathFilterError> {
+    /// filter unchanged) outside the gate. Returns how surprising the fix was.
+    pub fn update(&mut self, o: &Observation) -> Result<Surprise, PathFilterError> {
         let sd_m = o.sd_m;
         let p = o.point;
         if !(p.is_finite()
@@ -261,7 +276,10 @@ impl PathFilter {
         }
         moved.reanchor();
         *self = moved;
-        Ok(nis)
+        Ok(Surprise {
+            innovation_m: innovation,
+            var_m2: var,
+        })
     }
 
     /// Widen the path's uncertainty (after losing the pulse); the lag's is kept.

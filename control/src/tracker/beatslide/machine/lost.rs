@@ -152,7 +152,9 @@ impl BeatSlide {
         self.learn_pulse(&found, &fit, t - since, t);
         let located = self.located(0.5 * (since + t), point, sensor, &fit, false);
         self.record(point);
-        self.emit(TrackerEvent::Located(located));
+        if !self.smeared(t - since) {
+            self.emit(TrackerEvent::Located(located));
+        }
         if self.length_reached() {
             self.finish(EndReason::LengthReached, t);
             return;

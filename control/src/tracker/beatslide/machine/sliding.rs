@@ -231,14 +231,16 @@ impl BeatSlide {
         if fix.late_s.abs() > late_limit && k.snr() < SPOILED_SNR_FRACTION * usual {
             return Err(Miss::Timing { late_s: fix.late_s });
         }
+        let own_sd = self.fix_sd(k);
         let observation = Observation {
             point: fix.point(),
-            sd_m: self.fix_sd(k),
+            sd_m: own_sd.hypot(self.tissue.sd_m()),
             lag_dir: fix.lag_dir,
         };
         let filter = self.filter.as_mut().ok_or(Miss::NoModel)?;
         let mut updated = *filter;
-        let nis = updated.update(&observation)?;
+        let surprise = updated.update(&observation)?;
+        let nis = surprise.nis();
         // An untimed fix is used when the clock could not time the window: nothing but its
         // spatial pattern says it is this artery's pulse. When the pulse is fading (the
         // timed amplitude collapsed) the window's leading pattern need not be the pulse's:
@@ -249,6 +251,7 @@ impl BeatSlide {
             return Err(Miss::UntimedSurprise { nis });
         }
         *filter = updated;
+        self.tissue.push(surprise.innovation_m, own_sd.powi(2));
         let corrected = filter.corrected(&observation);
         // A surprising fix means the path turned away from the model: slow down (like the
         // seed's halving of the step); clear fixes speed up again.
@@ -268,7 +271,9 @@ impl BeatSlide {
     ) {
         let located = self.located(fix.t_mid_s, point, fix.sensor, &fix.kernel, false);
         self.record(point);
-        self.emit(TrackerEvent::Located(located));
+        if !self.smeared(self.window_len_s()) {
+            self.emit(TrackerEvent::Located(located));
+        }
         self.spatial = SpatialPrior {
             element: fix.kernel.element,
             width_m: fix.kernel.width_m,
