@@ -11,12 +11,16 @@
 //! pulse of unknown rate across all elements), [`kernel_fit`] (sub-element localization),
 //! [`beat_clock`] (following the heart's phase and rate) and [`noise_level`] (σ from the
 //! data).
+//!
+//! [`detection_bound`] is the reference they are judged against: the beats an ideal
+//! detector needs to feel a pulse, and the position bound after them (issue 18).
 
 pub mod analysis;
 pub mod bandpass;
 pub mod beat_clock;
 pub mod beat_interval;
 pub mod detect;
+pub mod detection_bound;
 pub mod harmonic;
 pub mod kernel_fit;
 pub mod localize;
