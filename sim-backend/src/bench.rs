@@ -254,6 +254,34 @@ impl Bench {
         self.tactile.path()
     }
 
+    /// The pulsatile force on each element per pascal of lumen pressure with the artery at
+    /// each of `offsets_m` from the element line's centre, at the artery's point nearest
+    /// `near`, the sensor level under the ideal arm's contact load (for the detection
+    /// bound: `crate::detection_bound`).
+    pub fn pulse_across(
+        &mut self,
+        near: SurfacePoint,
+        offsets_m: &[f64],
+    ) -> Vec<(f64, [f64; ELEMENTS])> {
+        let artery = self.tactile.path().nearest(near).point;
+        let contact = Contact::level(self.ideal_normal_n, self.ideal_indentation_m);
+        // Through `forces`, so that the coupling's gain is the simulator's own; the
+        // reference pressure is well inside the linear range (no element lifts off).
+        const REFERENCE_PA: f64 = 100.0;
+        offsets_m
+            .iter()
+            .map(|&x| {
+                let centre = SurfacePoint::new(artery.x_m, artery.z_m - x);
+                let rest = self.tactile.forces(centre, contact, 0.0);
+                let pulsed = self.tactile.forces(centre, contact, REFERENCE_PA);
+                (
+                    x,
+                    std::array::from_fn(|e| (pulsed[e] - rest[e]) / REFERENCE_PA),
+                )
+            })
+            .collect()
+    }
+
     pub fn set_enabled(&mut self, on: bool) {
         if let Arm::Dynamic(a) = &mut self.arm {
             a.enabled = on;

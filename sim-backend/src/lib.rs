@@ -12,6 +12,7 @@
 //!   use instead of the analytic one.
 
 pub mod bench;
+pub mod detection_bound;
 pub mod error;
 pub mod family;
 pub mod fem;

@@ -1,6 +1,7 @@
 //! The `pulsetrack` command line: one module per subcommand.
 
 mod bench;
+mod bound;
 mod check_config;
 pub mod console;
 mod demo;
@@ -44,6 +45,9 @@ enum Command {
     Replay(replay::Args),
     /// Run whole trials on the simulated bench in lockstep and report the tracking error.
     Sim(sim::Args),
+    /// The weakest pulse a scene lets an ideal detector feel: beats to decide, and the
+    /// position bound after them.
+    Bound(bound::Args),
     /// Monte Carlo of trials over scenes and trackers on every core: speed against error.
     Bench(bench::Args),
 }
@@ -58,6 +62,7 @@ pub fn run() -> ExitCode {
         Command::Recover(args) => recover::run(&args),
         Command::Replay(args) => replay::run(&args),
         Command::Sim(args) => sim::run(&args),
+        Command::Bound(args) => bound::run(&args),
         Command::Bench(args) => bench::run(&args),
     }
 }
