@@ -12,6 +12,7 @@
 
 use rayon::prelude::*;
 
+use super::boundary::supports;
 use super::contact::Indenter;
 use super::element::{Q4, extrapolate_to_nodes};
 use super::finger_penalty::{FingerPenalty, PENALTY_PER_MODULUS};
@@ -19,8 +20,8 @@ use super::material::{Analysis, Material};
 use super::mesh::Mesh;
 use super::model::{Load, ModelFile};
 use super::recovery::top_stresses;
-use super::run::supports;
-use super::sparse::{Constrained, Pattern, SolveError, element_dofs};
+use super::solve_error::SolveError;
+use super::sparse::{Constrained, Pattern, element_dofs};
 
 /// Stress and tangent of the material at one point.
 #[derive(Debug, Clone, Copy)]
@@ -664,7 +665,7 @@ mod tests {
         // A block squeezed by 25% between frictionless platens, sides free: the exact
         // neo-Hookean plane-stress state is homogeneous. Compare the Newton solution with a
         // direct scalar solve of the same constitutive law.
-        use crate::fem::mesher::{Density, mesh_block};
+        use crate::mesher::{Density, mesh_block};
         let d = Density {
             near_size_m: 0.005,
             far_size_m: 0.005,
