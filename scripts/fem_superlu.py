@@ -2,7 +2,7 @@
 """Python reference for the FEM benchmark: factor and solve the exported stiffness with
 SciPy's SuperLU (scipy.sparse.linalg.splu, its default COLAMD ordering).
 
-    cargo bench -p pulsetrack-sim --bench fem_seed001 -- --refine 3 --reps 1 --export /tmp/fem
+    cargo bench -p pulsetrack-fem --bench seed001 -- --refine 3 --reps 1 --export /tmp/fem
     python3 scripts/fem_superlu.py /tmp/fem [--reps 3]
 
 Prints the median read, factor and solve times; the assembly is not included (the Rust

@@ -10,9 +10,9 @@
 
 use config::{Validate, Validator};
 use libfuzzer_sys::fuzz_target;
-use sim::fem::mesher::MAX_NODES;
-use sim::fem::model::ModelFile;
-use sim::fem::run::build_mesh;
+use pulsetrack_fem::mesher::MAX_NODES;
+use pulsetrack_fem::model::ModelFile;
+use pulsetrack_fem::run::build_mesh;
 
 const ORIGIN: &str = "fuzz-fem.ron";
 

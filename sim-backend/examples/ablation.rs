@@ -4,8 +4,8 @@
 //!
 //! `cargo run --release -p pulsetrack-sim --example ablation -- [TRIALS] [arcs|wrist]`
 
-use pulsetrack_sim::fem::kernel::FemKernelSpec;
-use pulsetrack_sim::fem::material::Material;
+use pulsetrack_fem::kernel::FemKernelSpec;
+use pulsetrack_fem::material::Material;
 use pulsetrack_sim::runner::run_trial;
 use pulsetrack_sim::scene::{
     self, ArteryPath, MountSpec, PinAxis, Placing, PressureKernel, PulseCoupling, PulseSpec, Scene,

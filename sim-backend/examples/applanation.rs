@@ -7,8 +7,8 @@
 //!
 //! `cargo run --release -p pulsetrack-sim --example applanation`
 
-use pulsetrack_sim::fem::kernel::{KernelParams, compute};
-use pulsetrack_sim::fem::material::Material;
+use pulsetrack_fem::kernel::{KernelParams, compute};
+use pulsetrack_fem::material::Material;
 use pulsetrack_sim::physics::{applanation, kernel};
 
 /// 120/80 mmHg: the pulse pressure, Pa.
@@ -18,7 +18,10 @@ const HALF: f64 = 0.001;
 
 fn fem_element(p: &KernelParams) -> Result<(f64, f64), String> {
     let k = compute(p).map_err(|e| e.to_string())?;
-    Ok((k.at(0.0), k.rectangle_integral(0.0, 1.0, 0.0, HALF, HALF)))
+    Ok((
+        k.at(0.0),
+        kernel::fem_rectangle_integral(&k, 0.0, 1.0, 0.0, HALF, HALF),
+    ))
 }
 
 fn main() -> Result<(), String> {
@@ -133,7 +136,7 @@ fn main() -> Result<(), String> {
                 s * 1e3
             )),
             k.at(0.0),
-            k.rectangle_integral(0.001, 1.0, 0.0, HALF, HALF) * 100e3 * 1e3,
+            kernel::fem_rectangle_integral(&k, 0.001, 1.0, 0.0, HALF, HALF) * 100e3 * 1e3,
             k.net_force_m() / k.total_magnitude_m()
         );
     }

@@ -167,9 +167,9 @@ impl Bench {
         if let PressureKernel::Fem(spec) = &scene.artery.kernel {
             let a = &scene.artery;
             let params = spec.params(a.inner_radius_m, a.wall_m, a.depth_m);
-            let (kernel, _) = crate::fem::kernel::load_or_compute(
+            let (kernel, _) = pulsetrack_fem::kernel::load_or_compute(
                 &params,
-                &crate::fem::kernel::default_cache_dir(),
+                &pulsetrack_fem::kernel::default_cache_dir(),
             )
             .map_err(|e| scene_err(format!("FEM kernel: {e}")))?;
             tactile = tactile.with_fem_kernel(std::sync::Arc::new(kernel));

@@ -7,15 +7,15 @@
 //!   the rod through a compliant pivot, the Phantom's joint dynamics and encoders;
 //! - [`rig`]: the simulated bench behind control's ports, for the daemon;
 //! - [`runner`]: the lockstep runner behind `pulsetrack sim` and the benchmarks;
-//! - [`family`]: scene families, distributions of scenes a trial draws one scene from;
-//! - [`fem`]: the 2-D tissue FEM of the seed papers, and the FEM pressure kernel a scene may
-//!   use instead of the analytic one.
+//! - [`family`]: scene families, distributions of scenes a trial draws one scene from.
+//!
+//! The 2-D tissue FEM of the seed papers, and the FEM pressure kernel a scene may use instead
+//! of the analytic one, are the crate `pulsetrack-fem` (`sim-backend/fem/`).
 
 pub mod bench;
 pub mod detection_bound;
 pub mod error;
 pub mod family;
-pub mod fem;
 pub mod physics;
 pub mod random;
 pub mod rig;

@@ -15,7 +15,7 @@ use std::process::ExitCode;
 use config::load::Problem;
 use config::locate::{locate, parse_path};
 use config::{Config, ConfigError, load_file};
-use sim::fem::model::ModelFile;
+use pulsetrack_fem::model::ModelFile;
 use sim::scene::{ArteryPath, PressureKernel, Scene};
 
 #[derive(Debug, clap::Args)]
@@ -122,7 +122,7 @@ fn check_as(kind: Kind, path: &Path, source: &str) -> Result<String, ConfigError
         }
         Kind::FemModel => {
             let loaded = load_file::<ModelFile>(path)?;
-            sim::fem::run::build_mesh(&loaded.value, 0).map_err(|e| {
+            pulsetrack_fem::run::build_mesh(&loaded.value, 0).map_err(|e| {
                 located(
                     &origin,
                     source,
@@ -153,7 +153,7 @@ fn check_scene(scene: &Scene, origin: &str, source: &str) -> Result<(), ConfigEr
                 format!("the FEM kernel's parameters are out of range: {params:?}"),
             ));
         }
-        sim::fem::run::build_mesh(&params.model(), params.refine).map_err(|e| {
+        pulsetrack_fem::run::build_mesh(&params.model(), params.refine).map_err(|e| {
             located(
                 origin,
                 source,

@@ -6,9 +6,9 @@ use crate::cli::stdout::outln;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use sim::fem::model::{Kinematics, ModelFile};
-use sim::fem::run::{ModelRun, Record, run_model};
-use sim::fem::study::{
+use pulsetrack_fem::model::{Kinematics, ModelFile};
+use pulsetrack_fem::run::{ModelRun, Record, run_model};
+use pulsetrack_fem::study::{
     Seed001, Seed002, StudyOptions, TABLE1_HEALTHY_PA, TABLE1_STENOTIC_PA, TABLE1_TIMES_S,
     seed_001, seed_001_image, seed_002,
 };
@@ -214,10 +214,12 @@ fn print_seed_002(s: &Seed002) {
         for p in &sw.points {
             let first = p.run.times.first();
             let last = p.run.times.last();
-            let peak =
-                |t: Option<&sim::fem::run::TimeResult>| t.map_or(f64::NAN, |t| t.summary.peak);
-            let height =
-                |t: Option<&sim::fem::run::TimeResult>| t.map_or(f64::NAN, |t| t.lumen_height_m);
+            let peak = |t: Option<&pulsetrack_fem::run::TimeResult>| {
+                t.map_or(f64::NAN, |t| t.summary.peak)
+            };
+            let height = |t: Option<&pulsetrack_fem::run::TimeResult>| {
+                t.map_or(f64::NAN, |t| t.lumen_height_m)
+            };
             outln!(
                 "{:>10.2} {:>22.4} {:>16.3} {:>16.3} {:>10.3} / {:<9.3}",
                 p.value,
@@ -396,8 +398,8 @@ fn plot_seed_002(dir: &Path, s: &Seed002) -> Result<(), String> {
 }
 
 fn kernel_table(refine: u32) -> Result<(), String> {
-    use sim::fem::kernel::{KernelParams, analytic_per_pa, compute};
-    use sim::fem::material::Material;
+    use pulsetrack_fem::kernel::{KernelParams, analytic_per_pa, compute};
+    use pulsetrack_fem::material::Material;
     let soft = Material::new(20e3, 0.45);
     let cases: [(&str, f64, f64, Material, f64); 7] = [
         ("hole a=0.25 mm", 0.00025, 0.0, soft, 0.005),

@@ -92,6 +92,19 @@ pub fn integrate_over_rectangle(
     sum * half_slow
 }
 
+/// Force per Pa of lumen pressure on a rectangle (m², i.e. N/Pa) under a kernel computed by
+/// the FEM (`pulsetrack_fem::kernel`), with the arguments of [`rectangle_integral`].
+pub fn fem_rectangle_integral(
+    k: &pulsetrack_fem::kernel::Kernel,
+    u0: f64,
+    ga: f64,
+    gb: f64,
+    half_a: f64,
+    half_b: f64,
+) -> f64 {
+    integrate_over_rectangle(|u| k.antiderivative_m(u), u0, ga, gb, half_a, half_b)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -151,5 +164,42 @@ mod tests {
         let s = strength_n(100e3, 0.0015);
         let f = s * rectangle_integral(0.001, 1.0, 0.0, 0.001, 0.001, 0.005);
         assert!((f - 0.062).abs() < 0.002, "{f}");
+    }
+
+    #[test]
+    fn the_fem_kernels_rectangle_integral_matches_the_analytic_one_for_a_small_hole() {
+        let (a, h) = (0.0005, 0.005);
+        let k = pulsetrack_fem::kernel::compute(&pulsetrack_fem::kernel::KernelParams {
+            tissue: pulsetrack_fem::material::Material::new(20e3, 0.45),
+            lumen_radius_m: a,
+            wall_thickness_m: 0.0,
+            wall: pulsetrack_fem::material::Material::new(20e3, 0.45),
+            centre_depth_m: h,
+            refine: 0,
+            backing_depth_m: None,
+        })
+        .unwrap();
+        // A 2 x 2 mm element over the tube and one beyond |u| = h, square and at 45°.
+        // The far lobe (beyond |u| = h) of the finite block is within 15% of the half-space's.
+        for (u0, ga, gb, tol) in [
+            (0.0, 1.0, 0.0, 0.05),
+            (0.008, 1.0, 0.0, 0.15),
+            (
+                0.002,
+                std::f64::consts::FRAC_1_SQRT_2,
+                std::f64::consts::FRAC_1_SQRT_2,
+                0.05,
+            ),
+        ] {
+            let fem = fem_rectangle_integral(&k, u0, ga, gb, 0.001, 0.001);
+            let exact = strength_n(1.0, a) * rectangle_integral(u0, ga, gb, 0.001, 0.001, h);
+            assert!(
+                (fem - exact).abs() < tol * exact.abs() + 1e-12,
+                "u0 {u0}: fem {fem} analytic {exact}"
+            );
+        }
+        // The antiderivative over the whole table is the net force (about zero).
+        let end = *k.x_m.last().unwrap();
+        assert!((k.antiderivative_m(end + 1.0) - k.net_force_m()).abs() < 1e-15);
     }
 }

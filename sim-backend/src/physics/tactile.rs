@@ -33,7 +33,7 @@ use crate::scene::{ArteryPath, ArterySpec, LumpSpec, PulseCoupling, SensorSpec};
 #[derive(Debug, Clone)]
 enum Kernel {
     Analytic,
-    Fem(Arc<crate::fem::kernel::Kernel>),
+    Fem(Arc<pulsetrack_fem::kernel::Kernel>),
     Applanation,
 }
 
@@ -156,7 +156,7 @@ impl TactileModel {
 
     /// Use an FEM kernel (computed for this artery's depth, radius and wall) instead of the
     /// analytic one.
-    pub fn with_fem_kernel(mut self, kernel: Arc<crate::fem::kernel::Kernel>) -> Self {
+    pub fn with_fem_kernel(mut self, kernel: Arc<pulsetrack_fem::kernel::Kernel>) -> Self {
         self.kernel = Kernel::Fem(kernel);
         self.cache = None;
         self
@@ -225,7 +225,7 @@ impl TactileModel {
         let (u, gx, gz, s) = self.tube_from(c);
         let (h, a) = self.tube_at(s);
         match &self.kernel {
-            Kernel::Fem(k) => k.rectangle_integral(u, gx, gz, half_x, half_z),
+            Kernel::Fem(k) => kernel::fem_rectangle_integral(k, u, gx, gz, half_x, half_z),
             Kernel::Analytic => {
                 kernel::strength_n(1.0, a)
                     * kernel::rectangle_integral(u, gx, gz, half_x, half_z, h)

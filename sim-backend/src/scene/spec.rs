@@ -118,10 +118,10 @@ pub enum PressureKernel {
     /// DESIGN.md section 5: 2 Δp a² (h² - u²)/(u² + h²)², wall-less and modulus-free.
     #[default]
     Analytic,
-    /// From the 2-D FEM (`crate::fem::kernel`) for the artery's depth, radius and wall and
+    /// From the 2-D FEM (`pulsetrack_fem::kernel`) for the artery's depth, radius and wall and
     /// these moduli, cached on disk (`$PULSETRACK_FEM_CACHE` or the temporary directory).
     /// Needs a constant depth and radius along the path.
-    Fem(crate::fem::kernel::FemKernelSpec),
+    Fem(pulsetrack_fem::kernel::FemKernelSpec),
     /// The artery flattened against bone by the sensor (applanation): over half its outer
     /// circumference the lumen pressure acts on the tissue above it directly and spreads
     /// through the cover to the sensor (`physics::applanation`).

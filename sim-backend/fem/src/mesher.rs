@@ -579,7 +579,7 @@ mod tests {
     fn check_mesh(m: &Mesh, w: f64, h: f64) {
         // Orientation and positive Jacobians at every Gauss point.
         for e in 0..m.elements.len() {
-            let q = super::super::element::Q4::new(&m.element_coords(e));
+            let q = crate::element::Q4::new(&m.element_coords(e));
             assert!(q.is_ok(), "element {e} degenerate");
         }
         // Total area equals the block area minus the lumen (polygon).

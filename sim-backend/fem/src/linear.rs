@@ -9,7 +9,8 @@ use super::element::Q4;
 use super::material::{Analysis, Material};
 use super::mesh::Mesh;
 use super::recovery::top_stresses;
-use super::sparse::{Constrained, Ordering, Pattern, SolveError, element_dofs};
+use super::solve_error::SolveError;
+use super::sparse::{Constrained, Ordering, Pattern, element_dofs};
 
 /// Wall-clock seconds spent in each phase (for the benchmark, never for tests). Assembly and
 /// the symbolic analysis run side by side, so their sum exceeds the time they take together.
@@ -128,7 +129,7 @@ fn assemble(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fem::mesher::test_artery_block;
+    use crate::mesher::test_artery_block;
 
     /// Distorted 2x2-element-per-side patch with interior nodes moved off the grid.
     fn patch() -> Mesh {
@@ -275,7 +276,7 @@ mod tests {
         let force = m.lumen_pressure_forces(13e3);
         let c = lm.factor(&fixed).unwrap();
         let u = c.solve(&force, &pres).unwrap();
-        let vm = crate::fem::recovery::von_mises_of(&lm.top_stresses(&u));
+        let vm = crate::recovery::von_mises_of(&lm.top_stresses(&u));
         vm.iter().copied().fold(f64::NEG_INFINITY, f64::max)
     }
 

@@ -6,16 +6,19 @@
 //! layers, prescribed displacements, lumen pressure, a rigid indenter in frictionless contact,
 //! an optional finite-strain neo-Hookean solve, and von Mises recovered at the top-edge nodes.
 //! It also produces the surface pressure kernel the simulator can use instead of the analytic
-//! one. See docs/fem.md.
+//! one: the simulator (`pulsetrack-sim`) and the CLI depend on this crate, never the other
+//! way. See docs/fem.md.
 
 #![allow(clippy::needless_range_loop)] // index loops read like the formulas
 
+pub mod boundary;
 pub mod contact;
 pub mod element;
 pub mod finger_penalty;
 pub mod finite;
 pub mod kernel;
 pub mod linear;
+pub mod llt;
 pub mod material;
 pub mod mesh;
 pub mod mesher;
@@ -23,7 +26,7 @@ pub mod model;
 pub mod nested_dissection;
 pub mod recovery;
 pub mod run;
-pub mod scene_validation;
+pub mod solve_error;
 pub mod sparse;
 pub mod split_cholesky;
 pub mod study;

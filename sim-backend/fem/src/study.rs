@@ -399,7 +399,7 @@ mod tests {
         // default mesh refined twice; the changes must shrink (about 49, 44, 41 Pa).
         let swing_at = |refine: u32| {
             let mut m = shipped("seed-002-artery.ron").unwrap();
-            m.mesh = super::super::model::MeshSpec::default();
+            m.mesh = crate::model::MeshSpec::default();
             m.times_s = vec![DIASTOLE_S, SYSTOLE_S];
             swing(&run_model(&m, refine).unwrap()).1
         };
@@ -415,7 +415,7 @@ mod tests {
         // the finite-strain swing is larger than the linear one on the same mesh.
         let run = |k: Kinematics| {
             let mut m = shipped("seed-002-artery.ron").unwrap();
-            m.mesh = super::super::model::MeshSpec::default();
+            m.mesh = crate::model::MeshSpec::default();
             m.times_s = vec![DIASTOLE_S, SYSTOLE_S];
             m.kinematics = k;
             run_model(&m, 0).unwrap()

@@ -249,21 +249,6 @@ impl Kernel {
         }
         sum
     }
-
-    /// Force per Pa of lumen pressure on a rectangle (m², i.e. N/Pa), with the same
-    /// arguments as the analytic `physics::kernel::rectangle_integral`: the tube's signed
-    /// distance `u0` from the centre, its unit normal (`ga`, `gb`) in the rectangle's axes
-    /// and the half-sizes. Closed form along the faster axis, Gauss-Legendre along the other.
-    pub fn rectangle_integral(&self, u0: f64, ga: f64, gb: f64, half_a: f64, half_b: f64) -> f64 {
-        crate::physics::kernel::integrate_over_rectangle(
-            |u| self.antiderivative_m(u),
-            u0,
-            ga,
-            gb,
-            half_a,
-            half_b,
-        )
-    }
 }
 
 fn trapezoid(x: &[f64], y: &[f64], abs: bool) -> f64 {
@@ -486,35 +471,6 @@ mod tests {
         assert!((km - m).abs() < 0.15 * m.abs(), "fem {km} analytic {m}");
         let net = k.net_force_m() / k.total_magnitude_m();
         assert!(net.abs() < 0.02, "net/total {net} (fem {k0} analytic {a0})");
-    }
-
-    #[test]
-    fn rectangle_integral_matches_the_analytic_one_for_a_small_hole() {
-        let (a, h) = (0.0005, 0.005);
-        let k = compute(&hole(a, h)).unwrap();
-        // A 2 x 2 mm element over the tube and one beyond |u| = h, square and at 45°.
-        // The far lobe (beyond |u| = h) of the finite block is within 15% of the half-space's.
-        for (u0, ga, gb, tol) in [
-            (0.0, 1.0, 0.0, 0.05),
-            (0.008, 1.0, 0.0, 0.15),
-            (
-                0.002,
-                std::f64::consts::FRAC_1_SQRT_2,
-                std::f64::consts::FRAC_1_SQRT_2,
-                0.05,
-            ),
-        ] {
-            let fem = k.rectangle_integral(u0, ga, gb, 0.001, 0.001);
-            let exact = crate::physics::kernel::strength_n(1.0, a)
-                * crate::physics::kernel::rectangle_integral(u0, ga, gb, 0.001, 0.001, h);
-            assert!(
-                (fem - exact).abs() < tol * exact.abs() + 1e-12,
-                "u0 {u0}: fem {fem} analytic {exact}"
-            );
-        }
-        // The antiderivative over the whole table is the net force (about zero).
-        let end = *k.x_m.last().unwrap();
-        assert!((k.antiderivative_m(end + 1.0) - k.net_force_m()).abs() < 1e-15);
     }
 
     #[test]

@@ -10,7 +10,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::linear::LinearModel;
-use super::sparse::SolveError;
+use super::solve_error::SolveError;
 
 /// The finger shapes of paper 002 (Fig. 13).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -249,8 +249,8 @@ pub fn solve_contact(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fem::material::{Analysis, Material};
-    use crate::fem::mesher::test_artery_block;
+    use crate::material::{Analysis, Material};
+    use crate::mesher::test_artery_block;
 
     #[test]
     fn tip_profiles() {
@@ -272,7 +272,7 @@ mod tests {
         assert!(e.profile(1.0).unwrap() < c.profile(1.0).unwrap());
     }
 
-    fn setup(pressure_pa: f64) -> (crate::fem::mesh::Mesh, Vec<Material>, f64) {
+    fn setup(pressure_pa: f64) -> (crate::mesh::Mesh, Vec<Material>, f64) {
         let m = test_artery_block(0.006, 0.0026, 0.0006, 0.002);
         (
             m,
@@ -281,7 +281,7 @@ mod tests {
         )
     }
 
-    fn supports(m: &crate::fem::mesh::Mesh) -> (Vec<bool>, Vec<f64>) {
+    fn supports(m: &crate::mesh::Mesh) -> (Vec<bool>, Vec<f64>) {
         let mut fixed = vec![false; m.dofs()];
         for &n in &m.bottom {
             fixed[2 * n as usize + 1] = true;

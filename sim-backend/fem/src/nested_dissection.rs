@@ -565,10 +565,7 @@ mod tests {
             }
         };
         let symbolic = symbolic.unwrap();
-        (
-            symbolic.len_val(),
-            crate::fem::split_cholesky::cholesky_flops(&symbolic),
-        )
+        (symbolic.len_val(), crate::llt::cholesky_flops(&symbolic))
     }
 
     #[test]

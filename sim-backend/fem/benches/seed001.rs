@@ -4,18 +4,19 @@
 //! peak top von Mises at t = 0.425 s for the convergence table, the nonzeros of L and the
 //! factorization's multiply-adds (GFlop).
 //!
-//! cargo bench -p pulsetrack-sim --bench fem_seed001 -- [--refine 0,1,2,3] [--reps 5]
+//! cargo bench -p pulsetrack-fem --bench seed001 -- [--refine 0,1,2,3] [--reps 5]
 //!     [--size-scale S] [--ordering split|node|dof|nd] (default split) [--export DIR]   (DIR/k.mtx and DIR/f.txt for scripts/fem_superlu.py,
 //!     finest level)
 
 use std::io::Write;
 use std::time::Instant;
 
-use pulsetrack_sim::fem::linear::LinearModel;
-use pulsetrack_sim::fem::recovery::von_mises_of;
-use pulsetrack_sim::fem::run::{build_mesh, supports};
-use pulsetrack_sim::fem::sparse::{Ordering, factor_flops};
-use pulsetrack_sim::fem::study::shipped;
+use pulsetrack_fem::boundary::supports;
+use pulsetrack_fem::linear::LinearModel;
+use pulsetrack_fem::recovery::von_mises_of;
+use pulsetrack_fem::run::build_mesh;
+use pulsetrack_fem::sparse::{Ordering, factor_flops};
+use pulsetrack_fem::study::shipped;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);

@@ -73,7 +73,7 @@ pub fn synthesize(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fem::study::shipped;
+    use crate::study::shipped;
     use control::classify::{ClassifyParams, Kind, Window};
 
     struct Gauss(u64);
@@ -99,7 +99,7 @@ mod tests {
     fn window_for(model: &str, noise_sd_n: f64, seed: u64) -> (Window, f64) {
         let mut m = shipped(model).unwrap();
         m.times_s = vec![0.0, 0.425];
-        let run = crate::fem::run::run_model(&m, 0).unwrap();
+        let run = crate::run::run_model(&m, 0).unwrap();
         let p = ArrayPlacement::default();
         let mut g = Gauss(seed);
         let frames = synthesize(&run.times[0], &run.times[1], &p, 100.0, 6.0, pulse, || {

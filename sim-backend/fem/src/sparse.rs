@@ -8,7 +8,6 @@
 use std::sync::Arc;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::perm::PermRef;
 use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::{
@@ -19,9 +18,11 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRe
 use faer::{Conj, MatMut, Par, Side};
 use rayon::prelude::*;
 
+use super::llt::{cholesky_flops, numeric_llt};
 use super::mesh::Mesh;
 use super::nested_dissection::{self, LEAF_NODES};
-use super::split_cholesky::{SplitNumeric, SplitSymbolic, cholesky_flops};
+use super::solve_error::SolveError;
+use super::split_cholesky::{SplitNumeric, SplitSymbolic};
 
 /// The symbolic factorization (ordering, elimination tree, supernodes), shared by every
 /// numeric factorization on one mesh.
@@ -44,22 +45,6 @@ impl SymbolicFactor {
             Self::Split(s) => s.len_val(),
         }
     }
-}
-
-#[derive(Debug, Clone, thiserror::Error)]
-pub enum SolveError {
-    #[error("sparse factorization failed: {0}")]
-    Factor(String),
-    #[error(
-        "the stiffness is not positive definite (a rigid-body mode is unconstrained or an element is inverted)"
-    )]
-    NotPositiveDefinite,
-    #[error("the solution has non-finite values")]
-    NonFinite,
-    #[error("element {0} is inverted or degenerate")]
-    BadElement(usize),
-    #[error("{0}")]
-    NoConvergence(String),
 }
 
 /// How the fill-reducing ordering is computed (the benchmark compares them). The default,
@@ -484,35 +469,6 @@ pub fn factor_flops(symbolic: &Symbolic) -> f64 {
     }
 }
 
-/// Numeric supernodal or simplicial Cholesky of `mat` (lower triangle) for its symbolic
-/// factorization: L's values.
-pub(super) fn numeric_llt(
-    symbolic: &SymbolicCholesky<usize>,
-    mat: SparseColMatRef<'_, usize, f64>,
-) -> Result<Vec<f64>, SolveError> {
-    let mut factor = Vec::new();
-    factor
-        .try_reserve_exact(symbolic.len_val())
-        .map_err(|_| SolveError::Factor("out of memory for the factor".into()))?;
-    factor.resize(symbolic.len_val(), 0.0);
-    let par = Par::Seq;
-    let mut mem =
-        MemBuffer::try_new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()))
-            .map_err(|_| SolveError::Factor("out of memory for the workspace".into()))?;
-    symbolic
-        .factorize_numeric_llt::<f64>(
-            &mut factor,
-            mat,
-            Side::Lower,
-            LltRegularization::default(),
-            par,
-            MemStack::new(&mut mem),
-            Default::default(),
-        )
-        .map_err(|_| SolveError::NotPositiveDefinite)?;
-    Ok(factor)
-}
-
 /// A factorization of K with a set of DOFs prescribed, ready to solve load cases.
 #[derive(Debug)]
 pub struct Constrained<'p> {
@@ -672,7 +628,7 @@ pub fn element_dofs(el: &[u32; 4]) -> [usize; 8] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fem::mesher::test_artery_block;
+    use crate::mesher::test_artery_block;
 
     fn artery_mesh() -> Mesh {
         test_artery_block(0.008, 0.0025, 0.0008, 0.003)
@@ -730,8 +686,8 @@ mod tests {
 
     #[test]
     fn node_dof_and_nested_dissection_orderings_solve_the_same_system() {
-        use crate::fem::linear::LinearModel;
-        use crate::fem::material::{Analysis, Material};
+        use crate::linear::LinearModel;
+        use crate::material::{Analysis, Material};
         let m = artery_mesh();
         let mats = [Material::new(15e3, 0.45), Material::new(300e3, 0.49)];
         let mut fixed = vec![false; m.dofs()];
@@ -779,8 +735,8 @@ mod tests {
 
     #[test]
     fn the_split_factorization_solves_the_same_system_with_prescribed_values() {
-        use crate::fem::linear::LinearModel;
-        use crate::fem::material::{Analysis, Material};
+        use crate::linear::LinearModel;
+        use crate::material::{Analysis, Material};
         let m = artery_mesh();
         let mats = [Material::new(15e3, 0.45), Material::new(600e3, 0.49)];
         let lm = LinearModel::new(&m, &mats, Analysis::PlaneStrain).unwrap();
@@ -859,8 +815,8 @@ mod tests {
 
     #[test]
     fn several_load_cases_in_one_solve_match_separate_solves() {
-        use crate::fem::linear::LinearModel;
-        use crate::fem::material::{Analysis, Material};
+        use crate::linear::LinearModel;
+        use crate::material::{Analysis, Material};
         let m = artery_mesh();
         let lm = LinearModel::new(
             &m,

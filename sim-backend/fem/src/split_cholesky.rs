@@ -24,7 +24,8 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Accum, Conj, Mat, MatMut, MatRef, Par, Side};
 
-use super::sparse::{SolveError, numeric_llt};
+use super::llt::{cholesky_flops, numeric_llt};
+use super::solve_error::SolveError;
 
 const PART_A: u8 = 0;
 const PART_B: u8 = 1;
@@ -318,27 +319,6 @@ fn by_columns(
         rows[ptr[c]..ptr[c + 1]].sort_unstable();
     }
     (ptr, rows)
-}
-
-/// Multiply-adds of a sparse Cholesky: the sum over L's columns of their squared counts.
-pub fn cholesky_flops(symbolic: &SymbolicCholesky<usize>) -> f64 {
-    match symbolic.raw() {
-        SymbolicCholeskyRaw::Supernodal(sn) => (0..sn.n_supernodes())
-            .map(|s| {
-                let w = sn.supernode_end()[s] - sn.supernode_begin()[s];
-                let below = sn.supernode(s).pattern().len();
-                (0..w)
-                    .map(|c| ((w - c + below) as f64).powi(2))
-                    .sum::<f64>()
-            })
-            .sum(),
-        SymbolicCholeskyRaw::Simplicial(sm) => {
-            let p = sm.col_ptr();
-            (0..sm.ncols())
-                .map(|j| ((p[j + 1] - p[j]) as f64).powi(2))
-                .sum()
-        }
-    }
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]

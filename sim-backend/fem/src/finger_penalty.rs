@@ -269,11 +269,11 @@ mod tests {
         assert!((below[1] - MAX_SLOPE).abs() < 1e-6 && (above[1] - MAX_SLOPE).abs() < 1e-12);
     }
 
-    use crate::fem::contact::{Indenter, solve_contact};
-    use crate::fem::finite::FiniteModel;
-    use crate::fem::linear::LinearModel;
-    use crate::fem::material::{Analysis, Material};
-    use crate::fem::mesher::test_artery_block;
+    use crate::contact::{Indenter, solve_contact};
+    use crate::finite::FiniteModel;
+    use crate::linear::LinearModel;
+    use crate::material::{Analysis, Material};
+    use crate::mesher::test_artery_block;
 
     const TISSUE_PA: f64 = 50e3;
 
