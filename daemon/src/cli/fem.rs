@@ -267,7 +267,7 @@ fn plot_runs(dir: &Path, runs: &[ModelRun]) -> Result<(), String> {
                 Mark::Line,
             ));
         }
-        write_chart(&c, dir, &r.name).map_err(|e| e.to_string())?;
+        announce(write_chart(&c, dir, &r.name).map_err(|e| e.to_string())?);
     }
     Ok(())
 }
@@ -305,7 +305,7 @@ fn plot_seed_001(dir: &Path, s: &Seed001) -> Result<(), String> {
                 ));
         }
     }
-    write_chart(&c, dir, "seed-001-table1").map_err(|e| e.to_string())?;
+    announce(write_chart(&c, dir, "seed-001-table1").map_err(|e| e.to_string())?);
     Ok(())
 }
 
@@ -341,7 +341,7 @@ fn plot_tactile_image(dir: &Path, s: &Seed001) -> Result<(), String> {
         columns: 2,
         size_px: (1300, 900),
     };
-    write_heatmaps(&fig, dir, "seed-001-tactile-image").map_err(|e| e.to_string())?;
+    announce(write_heatmaps(&fig, dir, "seed-001-tactile-image").map_err(|e| e.to_string())?);
     Ok(())
 }
 
@@ -362,7 +362,7 @@ fn plot_seed_002(dir: &Path, s: &Seed002) -> Result<(), String> {
                 .collect(),
             Mark::LinePoints,
         ));
-        write_chart(&c, dir, &format!("sweep-{}", sw.name)).map_err(|e| e.to_string())?;
+        announce(write_chart(&c, dir, &format!("sweep-{}", sw.name)).map_err(|e| e.to_string())?);
         let mut d = Chart::new(
             format!("systolic - diastolic von Mises along the top: {}", sw.label),
             "x from the artery (mm)",
@@ -377,7 +377,10 @@ fn plot_seed_002(dir: &Path, s: &Seed002) -> Result<(), String> {
                 ));
             }
         }
-        write_chart(&d, dir, &format!("sweep-{}-curves", sw.name)).map_err(|e| e.to_string())?;
+        announce(
+            write_chart(&d, dir, &format!("sweep-{}-curves", sw.name))
+                .map_err(|e| e.to_string())?,
+        );
     }
     let mut c = Chart::new(
         "finger tips at 3 mm: top von Mises (systole)",
@@ -393,7 +396,7 @@ fn plot_seed_002(dir: &Path, s: &Seed002) -> Result<(), String> {
             ));
         }
     }
-    write_chart(&c, dir, "tips").map_err(|e| e.to_string())?;
+    announce(write_chart(&c, dir, "tips").map_err(|e| e.to_string())?);
     Ok(())
 }
 
@@ -486,4 +489,11 @@ fn kernel_table(refine: u32) -> Result<(), String> {
         1.0 / 8.0
     );
     Ok(())
+}
+
+/// Say where each plot went (stderr: stdout carries the results).
+fn announce(files: Vec<std::path::PathBuf>) {
+    for f in files {
+        eprintln!("wrote {}", f.display());
+    }
 }

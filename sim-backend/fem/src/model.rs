@@ -300,20 +300,24 @@ impl Validate for ModelFile {
                 }
                 let outer = f.lumen_radius_m.unwrap_or(0.0)
                     + f.layers.iter().map(|l| l.thickness_m).sum::<f64>();
-                let room = f
-                    .centre_x_m
-                    .min(self.block.width_m - f.centre_x_m)
-                    .min(f.centre_depth_m)
-                    .min(self.block.height_m - f.centre_depth_m);
-                v.check(
-                    !(outer.is_finite() && room.is_finite()) || room >= 1.15 * outer,
-                    "centre_depth_m",
-                    format!(
-                        "the feature (outer radius {outer} m) needs at least {} m to every edge \
-                         of the block; it has {room} m",
-                        1.15 * outer
-                    ),
-                );
+                // Sideways room is `centre_x_m`'s, vertical room `centre_depth_m`'s: each
+                // is reported under the field that would have to change.
+                let needed = 1.15 * outer;
+                let sideways = f.centre_x_m.min(self.block.width_m - f.centre_x_m);
+                let vertical = f.centre_depth_m.min(self.block.height_m - f.centre_depth_m);
+                for (field, room, edges) in [
+                    ("centre_x_m", sideways, "left and right edges"),
+                    ("centre_depth_m", vertical, "top and bottom edges"),
+                ] {
+                    v.check(
+                        !(outer.is_finite() && room.is_finite()) || room >= needed,
+                        field,
+                        format!(
+                            "the feature (outer radius {outer} m) needs at least {needed} m to \
+                             the block's {edges}; it has {room} m"
+                        ),
+                    );
+                }
             });
         }
         v.at("load", |v| match self.load {
@@ -456,6 +460,20 @@ mod tests {
             .to_string();
         assert!(
             msg.contains("bad.ron:9:") && msg.contains("centre_depth_m"),
+            "{msg}"
+        );
+
+        // Too close to the left edge: reported under the field that places it sideways,
+        // with its line, and not under the depth, which is fine.
+        let bad = GOOD.replace("centre_x_m: 0.04", "centre_x_m: 0.004");
+        let msg = config::load_str::<ModelFile>("bad.ron", &bad)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("bad.ron:8:")
+                && msg.contains("feature.centre_x_m")
+                && msg.contains("left and right")
+                && !msg.contains("centre_depth_m"),
             "{msg}"
         );
 
