@@ -96,7 +96,7 @@ pub fn scene_bound(
         message: format!("detection bound: {e}"),
     };
     let threshold_known = known_position_threshold(options.pfa).map_err(bad)?;
-    snr_needed(threshold_known, options.pd).map_err(bad)?;
+    let needed_known = snr_needed(threshold_known, options.pd).map_err(bad)?;
     let sample_rate_hz = config.sensor.sample_rate_hz;
     let noise_sd_n = scene.sensor.noise_sd_n;
     let pump = sample_pump(scene, sample_rate_hz, options.seed).ok_or(SimError::Scene {
@@ -120,7 +120,6 @@ pub fn scene_bound(
         standard_normal(&mut rng)
     })
     .map_err(bad)?;
-    let needed_known = snr_needed(threshold_known, options.pd).map_err(bad)?;
     let needed_unknown = snr_needed(threshold_unknown, options.pd).map_err(bad)?;
     let pitch = scene.sensor.pitch_m;
     let last = (ELEMENTS as f64 - 1.0) / 2.0 * pitch;

@@ -101,6 +101,11 @@ fn statistics(
     (project(&tab[at].1), best)
 }
 
+/// The searched detector's threshold from 20 000 noise-only draws.
+fn searched_threshold(tab: &[(f64, [f64; ELEMENTS])], pfa: f64, rng: &mut Normals) -> f64 {
+    glrt_threshold(tab, pfa, 20_000, &mut || rng.next()).expect("threshold")
+}
+
 /// Three binomial standard errors of a rate `p` over `n` trials.
 fn three_se(p: f64, n: usize) -> f64 {
     3.0 * (p * (1.0 - p) / n as f64).sqrt()
@@ -159,7 +164,7 @@ fn the_unknown_position_threshold_holds_its_false_alarm_rate_at_every_length() {
     let w = waveform(2000.0);
     let pfa = 0.05;
     let mut rng = Normals::new(11);
-    let eta = glrt_threshold(&tab, pfa, 20_000, &mut || rng.next()).expect("threshold");
+    let eta = searched_threshold(&tab, pfa, &mut rng);
     // Above the known-position threshold (a maximum over positions), below Bonferroni's.
     assert!(eta > known_position_threshold(pfa).expect("pfa"));
     assert!(eta < normal_quantile(1.0 - pfa / tab.len() as f64));
@@ -182,7 +187,7 @@ fn a_pulse_at_the_bound_is_found_by_the_unknown_position_detector() {
     let (sigma, w) = (0.012, waveform(2000.0));
     let (pfa, pd) = (0.05, 0.9);
     let mut rng = Normals::new(13);
-    let eta = glrt_threshold(&tab, pfa, 20_000, &mut || rng.next()).expect("threshold");
+    let eta = searched_threshold(&tab, pfa, &mut rng);
     let at = 12; // 3 mm off the middle
     let beat = per_beat(&tab, at, waveform_energy(&w), sigma).expect("signal");
     let beats = beats_for(snr_needed(eta, pd).expect("pd"), beat.snr);
