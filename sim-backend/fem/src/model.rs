@@ -446,6 +446,13 @@ mod tests {
         assert!((f.layers[0].outer_radius_m - 0.005).abs() < 1e-15);
     }
 
+    /// The load error of the good file with `from` replaced by `to`.
+    fn error_for(from: &str, to: &str) -> String {
+        config::load_str::<ModelFile>("bad.ron", &GOOD.replace(from, to))
+            .unwrap_err()
+            .to_string()
+    }
+
     #[test]
     fn bad_values_name_file_line_and_field() {
         let bad = GOOD.replace("nu: 0.49", "nu: 0.5");
@@ -454,10 +461,7 @@ mod tests {
         assert!(msg.starts_with("bad.ron:11:"), "{msg}");
         assert!(msg.contains("feature.layers[0].material.nu"), "{msg}");
 
-        let bad = GOOD.replace("centre_depth_m: 0.015", "centre_depth_m: 0.004");
-        let msg = config::load_str::<ModelFile>("bad.ron", &bad)
-            .unwrap_err()
-            .to_string();
+        let msg = error_for("centre_depth_m: 0.015", "centre_depth_m: 0.004");
         assert!(
             msg.contains("bad.ron:9:") && msg.contains("centre_depth_m"),
             "{msg}"
@@ -465,10 +469,7 @@ mod tests {
 
         // Too close to the left edge: reported under the field that places it sideways,
         // with its line, and not under the depth, which is fine.
-        let bad = GOOD.replace("centre_x_m: 0.04", "centre_x_m: 0.004");
-        let msg = config::load_str::<ModelFile>("bad.ron", &bad)
-            .unwrap_err()
-            .to_string();
+        let msg = error_for("centre_x_m: 0.04", "centre_x_m: 0.004");
         assert!(
             msg.contains("bad.ron:8:")
                 && msg.contains("feature.centre_x_m")
@@ -477,19 +478,13 @@ mod tests {
             "{msg}"
         );
 
-        let bad = GOOD.replace("semi_height_m", "semi_heigth_m");
-        let msg = config::load_str::<ModelFile>("bad.ron", &bad)
-            .unwrap_err()
-            .to_string();
+        let msg = error_for("semi_height_m", "semi_heigth_m");
         assert!(
             msg.starts_with("bad.ron:13:") && msg.contains("semi_heigth_m"),
             "{msg}"
         );
 
-        let bad = GOOD.replace("times_s: [0.0, 0.425]", "times_s: []");
-        let msg = config::load_str::<ModelFile>("bad.ron", &bad)
-            .unwrap_err()
-            .to_string();
+        let msg = error_for("times_s: [0.0, 0.425]", "times_s: []");
         assert!(msg.contains(":15:") && msg.contains("times_s"), "{msg}");
     }
 
