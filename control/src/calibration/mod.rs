@@ -1,0 +1,17 @@
+//! Calibration math for bringing up a rig (issue 15): the pivot (incision) from rod lines, the
+//! tissue frame from touched surface points, and the tactile array's tare, gains and faulty
+//! elements; each result carries its residual and [`tolerance::Check`]s against configured
+//! tolerances.
+//!
+//! Pure functions over recorded data: the procedures that move the arm and record the data,
+//! the calibration file and the daemon's verbs are not here (docs/calibration.md, "Rig
+//! calibration").
+
+pub mod pivot;
+pub mod tolerance;
+
+#[cfg(test)]
+mod test_normals;
+
+pub use pivot::{PivotFit, PivotFitError, RodLine, fit_pivot};
+pub use tolerance::{Bound, Check, Tolerances, all_passed};
