@@ -8,10 +8,12 @@
 //! calibration").
 
 pub mod pivot;
+pub mod tissue_frame;
 pub mod tolerance;
 
 #[cfg(test)]
 mod test_normals;
 
 pub use pivot::{PivotFit, PivotFitError, RodLine, fit_pivot};
+pub use tissue_frame::{ArteryCourse, TissueFit, TissueFrameError, YawSource, fit_tissue_frame};
 pub use tolerance::{Bound, Check, Tolerances, all_passed};
