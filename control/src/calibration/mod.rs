@@ -8,6 +8,7 @@
 //! calibration").
 
 pub mod pivot;
+pub mod tactile;
 pub mod tissue_frame;
 pub mod tolerance;
 
@@ -15,5 +16,9 @@ pub mod tolerance;
 mod test_normals;
 
 pub use pivot::{PivotFit, PivotFitError, RodLine, fit_pivot};
+pub use tactile::{
+    ElementCalibration, ElementStatus, Recording, TactileCalibration, TactileCalibrationError,
+    TactileSettings, Tare, calibrate_gains,
+};
 pub use tissue_frame::{ArteryCourse, TissueFit, TissueFrameError, YawSource, fit_tissue_frame};
 pub use tolerance::{Bound, Check, Tolerances, all_passed};
