@@ -140,7 +140,7 @@ pub fn fit_pivot(lines: &[RodLine]) -> Result<PivotFit, PivotFitError> {
         let length = l.direction.norm();
         // Rescaled first so that tiny but valid directions (in any unit) are kept.
         let scale = l.direction.amax();
-        if !(scale > 0.0) {
+        if scale <= 0.0 {
             return Err(PivotFitError::ZeroDirection { line, length });
         }
         units.push((l.direction / scale).normalize());

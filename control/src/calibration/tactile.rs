@@ -2,7 +2,8 @@
 //! no-load recording), each element's gain from a known uniform load, and the elements not to
 //! trust (stuck, saturated, dead), marked so that localization skips them.
 //!
-//! Statistics over recorded [`TactileFrame`]s: means, sample SDs (n − 1), extremes. An element
+//! Plain statistics over recorded [`TactileFrame`]s (means, sample SDs with n − 1, extremes;
+//! nothing a crate would add). An element
 //! is, in this order:
 //! - **stuck** if its no-load readings vary by less than `stuck_max_noise_sd_n` (a live
 //!   capacitive element always shows noise);

@@ -107,8 +107,8 @@ fn offsets_noise_and_gains_are_measured_and_bad_elements_marked() {
     // The corrected reading of a usable element under the load is the load.
     let raw: [f64; ELEMENTS] = std::array::from_fn(|e| rig.offset[e] + rig.gain[e] * LOAD);
     let corrected = cal.correct(&raw);
-    for e in 0..ELEMENTS {
-        match corrected[e] {
+    for (e, c) in corrected.iter().enumerate() {
+        match c {
             Some(f) => assert!((f - LOAD).abs() < 0.01, "element {e}: {f}"),
             None => assert!(!cal.usable()[e], "element {e}"),
         }

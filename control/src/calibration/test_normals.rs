@@ -1,5 +1,6 @@
 //! Deterministic unit normals for the calibration tests (SplitMix64 and Box-Muller), so that a
-//! noise test gives the same numbers on every run.
+//! noise test gives the same numbers on every run. The same generator as the detection bound's
+//! tests, which keep theirs private to `signal`.
 
 pub struct Normals {
     state: u64,

@@ -150,13 +150,13 @@ pub fn fit_tissue_frame(
             index,
         });
     }
-    if let Some(a) = artery {
-        if let Some(index) = [a.from, a.to].iter().position(|p| !finite(p)) {
-            return Err(TissueFrameError::NonFinite {
-                what: "artery point",
-                index,
-            });
-        }
+    if let Some(a) = artery
+        && let Some(index) = [a.from, a.to].iter().position(|p| !finite(p))
+    {
+        return Err(TissueFrameError::NonFinite {
+            what: "artery point",
+            index,
+        });
     }
     if !(prior.origin_in_base_m.iter().all(|v| v.is_finite()) && prior.yaw_rad.is_finite()) {
         return Err(TissueFrameError::NonFinitePrior);
