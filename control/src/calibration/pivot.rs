@@ -63,6 +63,9 @@ pub enum PivotFitError {
     #[error("rod line {line}: its direction has length {length:.3e}, no direction at all")]
     ZeroDirection { line: usize, length: f64 },
 
+    #[error("the fit overflowed: the rod lines' coordinates are too large for it")]
+    Overflow,
+
     #[error(
         "the rod lines are parallel: their directions spread {spread_rad:.3e} rad about a \
          common axis (below {min_rad:.1e} rad), so the pivot could lie anywhere along them; \
@@ -184,6 +187,9 @@ pub fn fit_pivot(lines: &[RodLine]) -> Result<PivotFit, PivotFitError> {
     }
     // Each line constrains the two directions across it; the pivot uses three.
     let sigma = (sum_sq / (2.0 * n - 3.0)).sqrt();
+    if !(p.iter().all(|v| v.is_finite()) && sum_sq.is_finite()) {
+        return Err(PivotFitError::Overflow);
+    }
     Ok(PivotFit {
         pivot: Pivot(p),
         rms_residual_m: (sum_sq / n).sqrt(),

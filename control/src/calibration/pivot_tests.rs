@@ -233,6 +233,15 @@ fn too_few_or_bad_lines_are_refused_naming_the_line() {
     );
 }
 
+#[test]
+fn coordinates_too_large_for_the_fit_are_refused_not_answered_with_nan() {
+    let lines = [
+        RodLine::new(Point3::new(1e308, 0.0, 0.0), Vector3::y()),
+        RodLine::new(Point3::new(1.5e308, 0.0, 0.0), Vector3::z()),
+    ];
+    assert_eq!(fit_pivot(&lines), Err(PivotFitError::Overflow));
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 

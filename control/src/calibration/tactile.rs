@@ -3,13 +3,13 @@
 //! trust (stuck, saturated, dead), marked so that localization skips them.
 //!
 //! Plain statistics over recorded [`TactileFrame`]s (means, sample SDs with n − 1, extremes;
-//! nothing a crate would add). An element
-//! is, in this order:
+//! nothing a crate would add). An element is, in this order:
 //! - **stuck** if its no-load readings vary by less than `stuck_max_noise_sd_n` (a live
 //!   capacitive element always shows noise);
-//! - **saturated** if any reading reaches `full_scale_n`, or if it goes flat under the load
+//! - **saturated** if any reading reaches ±`full_scale_n`, or if it goes flat under the load
 //!   (clipped at a rail the configuration does not know);
-//! - **dead** if its gain (loaded mean − offset) / known force is below `min_gain`;
+//! - **dead** if its gain (loaded mean − offset) / known force is below `min_gain` (or not a
+//!   number: readings so large their sums overflow);
 //! - otherwise **good**, corrected as (raw − offset) / gain.
 
 use serde::{Deserialize, Serialize};
@@ -68,7 +68,7 @@ pub struct TactileSettings {
     /// A no-load SD below this is no noise at all: the element is stuck, N (one count of the
     /// serial protocol, 0.1 mN, against the seed's 12 mN of noise).
     pub stuck_max_noise_sd_n: f64,
-    /// A reading at or above this is at the element's rail, N (i16::MAX counts of 0.1 mN).
+    /// A reading at or beyond ± this is at the element's rail, N (i16::MAX counts of 0.1 mN).
     pub full_scale_n: f64,
     /// Below this gain the element is dead: correcting it would multiply its noise by more
     /// than 1/min_gain.
@@ -113,6 +113,7 @@ struct ElementStats {
     mean_n: [f64; ELEMENTS],
     sd_n: [f64; ELEMENTS],
     max_n: [f64; ELEMENTS],
+    min_n: [f64; ELEMENTS],
     frames: usize,
 }
 
@@ -146,6 +147,7 @@ fn element_stats(
         mean_n: [0.0; ELEMENTS],
         sd_n: [0.0; ELEMENTS],
         max_n: [f64::NEG_INFINITY; ELEMENTS],
+        min_n: [f64::INFINITY; ELEMENTS],
         frames: frames.len(),
     };
     for e in 0..ELEMENTS {
@@ -161,6 +163,10 @@ fn element_stats(
             .iter()
             .map(|f| f.force_n[e])
             .fold(f64::NEG_INFINITY, f64::max);
+        stats.min_n[e] = frames
+            .iter()
+            .map(|f| f.force_n[e])
+            .fold(f64::INFINITY, f64::min);
     }
     Ok(stats)
 }
@@ -262,12 +268,13 @@ pub fn calibrate_gains(
             / known_force_per_element_n;
         let status = if rest.sd_n[e] < settings.stuck_max_noise_sd_n {
             ElementStatus::Stuck
-        } else if rest.max_n[e] >= settings.full_scale_n
-            || load.max_n[e] >= settings.full_scale_n
+        } else if [rest, &load]
+            .iter()
+            .any(|r| r.max_n[e] >= settings.full_scale_n || r.min_n[e] <= -settings.full_scale_n)
             || load.sd_n[e] < settings.stuck_max_noise_sd_n
         {
             ElementStatus::Saturated
-        } else if gain < settings.min_gain {
+        } else if !(gain >= settings.min_gain && gain_standard_error.is_finite()) {
             ElementStatus::Dead
         } else {
             ElementStatus::Good

@@ -300,3 +300,67 @@ fn a_noisy_load_fails_the_gain_precision_check() {
     assert!(!precision.passed(), "{precision}");
     assert!(cal.worst_gain_relative_error() > 0.1);
 }
+
+#[test]
+fn the_negative_rail_saturates_and_overflowing_readings_are_never_good() {
+    let s = settings();
+    let rest = record(30, |e, i| 0.01 * ((e + i) % 4) as f64);
+    let tare = Tare::from_frames(&rest, &s).unwrap();
+    let loaded = record(30, |e, i| {
+        if e == 1 && i == 4 {
+            -1.0
+        } else {
+            0.5 + 0.01 * ((e + i) % 4) as f64
+        }
+    });
+    let cal = calibrate_gains(&tare, &loaded, 0.5).unwrap();
+    assert_eq!(cal.elements[1].status, ElementStatus::Saturated);
+    assert_eq!(cal.unusable_count(), 1);
+    // With no rail in reach, readings whose sums overflow give no number for the gain (8:
+    // inf − inf) or for its error (7): dead, never good.
+    let unbounded = TactileSettings {
+        full_scale_n: f64::MAX,
+        ..s
+    };
+    let rest = record(30, |e, i| {
+        if e == 8 {
+            1e308
+        } else {
+            0.01 * ((e + i) % 4) as f64
+        }
+    });
+    let tare = Tare::from_frames(&rest, &unbounded).unwrap();
+    let loaded = record(30, |e, i| {
+        if (7..=8).contains(&e) {
+            1e308
+        } else {
+            0.5 + 0.01 * ((e + i) % 4) as f64
+        }
+    });
+    let cal = calibrate_gains(&tare, &loaded, 0.5).unwrap();
+    assert!(
+        cal.elements[7].gain.is_infinite() && cal.elements[8].gain.is_nan(),
+        "{cal:?}"
+    );
+    assert_eq!(
+        cal.elements[7].status,
+        ElementStatus::Dead,
+        "{:?}",
+        cal.elements[7]
+    );
+    assert_eq!(
+        cal.elements[8].status,
+        ElementStatus::Dead,
+        "{:?}",
+        cal.elements[8]
+    );
+    assert_eq!(cal.unusable_count(), 2);
+    assert!(
+        cal.correct(&[0.5; ELEMENTS])
+            .iter()
+            .flatten()
+            .all(|f| f.is_finite())
+    );
+    assert!(cal.noise_sd_n().is_some_and(f64::is_finite));
+    assert!(cal.worst_gain_relative_error().is_finite());
+}

@@ -55,6 +55,9 @@ pub enum TissueFrameError {
     #[error("{what} {index} is not finite")]
     NonFinite { what: &'static str, index: usize },
 
+    #[error("the fit overflowed: the touched points' coordinates are too large for it")]
+    Overflow,
+
     #[error("the configured (prior) tissue placement is not finite")]
     NonFinitePrior,
 
@@ -171,6 +174,9 @@ pub fn fit_tissue_frame(
         let d = p.coords - centroid;
         acc + d * d.transpose()
     });
+    if !scatter.iter().all(|v| v.is_finite()) {
+        return Err(TissueFrameError::Overflow);
+    }
     let eigen = SymmetricEigen::new(scatter);
     let mut order = [0, 1, 2];
     order.sort_by(|&i, &j| eigen.eigenvalues[i].total_cmp(&eigen.eigenvalues[j]));
@@ -233,6 +239,9 @@ pub fn fit_tissue_frame(
     };
     // The plane's height under the origin: n · (o − c) = 0 solved for o.y (n.y ≥ cos 60°).
     let oy = centroid.y - (normal.x * (ox - centroid.x) + normal.z * (oz - centroid.z)) / normal.y;
+    if !([ox, oy, oz].iter().all(|v| v.is_finite()) && sum_sq.is_finite()) {
+        return Err(TissueFrameError::Overflow);
+    }
     Ok(TissueFit {
         placement: TissuePlacement {
             origin_in_base_m: [ox, oy, oz],

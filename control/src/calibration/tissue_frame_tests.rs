@@ -243,6 +243,27 @@ fn touched_points_from_joints_are_the_sensor_centre_in_the_base_frame() {
     assert!(touched_point_in_base(&model, &[f64::NAN, 0.5, 0.5]).is_err());
 }
 
+#[test]
+fn coordinates_too_large_for_the_fit_are_refused_not_answered_with_nan() {
+    let prior = placement([0.0, -0.3, 0.0], 0.0);
+    let huge: Vec<_> = PATCH
+        .iter()
+        .map(|&(x, z)| Point3::new(x * 1e200, -0.3, z * 1e200))
+        .collect();
+    assert_eq!(
+        fit_tissue_frame(&huge, None, &prior),
+        Err(TissueFrameError::Overflow)
+    );
+    let far = ArteryCourse {
+        from: Point3::new(-1e308, -0.3, 0.0),
+        to: Point3::new(1e308, -0.3, 0.0),
+    };
+    assert_eq!(
+        fit_tissue_frame(&touches(&prior, &PATCH), Some(&far), &prior),
+        Err(TissueFrameError::Overflow)
+    );
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 
