@@ -13,6 +13,8 @@ pub mod tissue_frame;
 pub mod tolerance;
 
 #[cfg(test)]
+mod kinematics_tests;
+#[cfg(test)]
 mod test_normals;
 
 pub use pivot::{PivotFit, PivotFitError, RodLine, fit_pivot};

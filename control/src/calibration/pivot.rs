@@ -85,6 +85,8 @@ pub struct PivotFit {
     pub worst_line: usize,
     /// RMS angle of the rods from their best common axis, rad (`asin √(λmin/n)`).
     pub spread_rad: f64,
+    /// Smallest eigenvalue λmin of the normal matrix A (between 0 and n).
+    pub min_eigenvalue: f64,
     /// λmax/λmin of the normal matrix.
     pub condition_number: f64,
     /// Standard error of the pivot along its worst-fixed direction, m (σ/√λmin, σ estimated
@@ -196,6 +198,7 @@ pub fn fit_pivot(lines: &[RodLine]) -> Result<PivotFit, PivotFitError> {
         max_residual_m,
         worst_line,
         spread_rad,
+        min_eigenvalue: lambda_min,
         condition_number: lambda_max / lambda_min,
         standard_error_m: sigma / lambda_min.sqrt(),
         lines: lines.len(),

@@ -69,6 +69,9 @@ fn two_crossing_rods_meet_at_the_pivot_and_the_spread_is_half_their_angle() {
     let fit = fit_pivot(&rods_through(pivot, &dirs, 0.2)).unwrap();
     assert!((fit.pivot.0 - pivot).norm() < 1e-12);
     assert!((fit.spread_rad - 0.2).abs() < 1e-12);
+    // Eigenvalues 2 and 1 ± cos 0.4 (the angle between the rods).
+    assert!((fit.min_eigenvalue - (1.0 - 0.4f64.cos())).abs() < 1e-12);
+    assert!((fit.condition_number - 2.0 / (1.0 - 0.4f64.cos())).abs() < 1e-6);
     // Two lines that meet: σ from one degree of freedom is zero.
     assert!(fit.standard_error_m < 1e-10);
 }
