@@ -10,8 +10,9 @@
 //!
 //! Hand-written (a 3 × 3 symmetric eigenproblem with nalgebra) because its conditioning is the
 //! result's main diagnostic: the smallest eigenvalue of A is n(1 − max_w mean (uᵢ·w)²), so
-//! `spread = asin √(λmin/n)` is the RMS angle of the rods from their best common axis (half
-//! the angle between them for two lines), and the pivot's standard error along that axis is
+//! `spread = asin √(λmin/n)` is the angle whose sine is the RMS sine of the rods' angles from
+//! their best common axis (for a narrow cone, their RMS angle; for two rods, half the angle
+//! between them), and the pivot's standard error along that axis is
 //! σ/√λmin with σ² = Σ dᵢ²/(2n − 3). Parallel rods leave the pivot free to slide along them.
 
 use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
@@ -60,8 +61,8 @@ pub enum PivotFitError {
     #[error("rod line {line}: its {what} is not finite")]
     NonFinite { line: usize, what: &'static str },
 
-    #[error("rod line {line}: its direction has length {length:.3e}, no direction at all")]
-    ZeroDirection { line: usize, length: f64 },
+    #[error("rod line {line}: its direction is the zero vector")]
+    ZeroDirection { line: usize },
 
     #[error("the fit overflowed: the rod lines' coordinates are too large for it")]
     Overflow,
@@ -83,7 +84,8 @@ pub struct PivotFit {
     /// Largest distance of the pivot from a line, m, and that line's index.
     pub max_residual_m: f64,
     pub worst_line: usize,
-    /// RMS angle of the rods from their best common axis, rad (`asin √(λmin/n)`).
+    /// Spread of the rods about their best common axis, rad: `asin √(λmin/n)`, the angle whose
+    /// sine is the RMS sine of their angles from it.
     pub spread_rad: f64,
     /// Smallest eigenvalue λmin of the normal matrix A (between 0 and n).
     pub min_eigenvalue: f64,
@@ -142,11 +144,10 @@ pub fn fit_pivot(lines: &[RodLine]) -> Result<PivotFit, PivotFitError> {
                 what: "direction",
             });
         }
-        let length = l.direction.norm();
         // Rescaled first so that tiny but valid directions (in any unit) are kept.
         let scale = l.direction.amax();
         if scale <= 0.0 {
-            return Err(PivotFitError::ZeroDirection { line, length });
+            return Err(PivotFitError::ZeroDirection { line });
         }
         units.push((l.direction / scale).normalize());
     }

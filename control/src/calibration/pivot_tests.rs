@@ -54,6 +54,11 @@ fn noise_free_rods_give_the_pivot_exactly() {
         fit.spread_rad
     );
     assert!(fit.checks(&Tolerances::default()).iter().all(Check::passed));
+    // Rods along the three axes: λmin/n = 2/3, the widest spread there is.
+    let axes = [Vector3::x(), Vector3::y(), Vector3::z()];
+    let widest = fit_pivot(&rods_through(pivot, &axes, 0.28)).unwrap();
+    assert!((widest.spread_rad - (2.0f64 / 3.0).sqrt().asin()).abs() < 1e-12);
+    assert!((widest.condition_number - 1.0).abs() < 1e-12);
     let geometry = fit.apply_to(&PivotGeometry::default());
     assert_eq!(
         geometry.pivot_in_base_m,
@@ -225,7 +230,7 @@ fn too_few_or_bad_lines_are_refused_naming_the_line() {
     assert_eq!(e.to_string(), "rod line 1: its direction is not finite");
     assert!(matches!(
         fit_pivot(&[zero_dir, good, other]),
-        Err(PivotFitError::ZeroDirection { line: 0, .. })
+        Err(PivotFitError::ZeroDirection { line: 0 })
     ));
     // A tiny but real direction is a direction.
     let tiny = RodLine::new(Point3::new(0.0, 0.0, 1.0), Vector3::x() * 1e-300);

@@ -133,11 +133,13 @@ impl Tolerances {
                 return Err(format!("{name} must be positive and finite, got {v}"));
             }
         }
-        // The spread is the RMS angle of the lines from their best common axis: at most
-        // asin(√(2/3)) for directions spread evenly over the sphere.
-        if self.pivot_min_spread_rad >= std::f64::consts::FRAC_PI_2 {
+        // The spread, asin √(λmin/n), cannot exceed asin √(2/3): the normal matrix's trace is
+        // 2n, so its smallest eigenvalue is at most 2n/3 (directions spread evenly).
+        let most = (2.0f64 / 3.0).sqrt().asin();
+        if self.pivot_min_spread_rad >= most {
             return Err(format!(
-                "pivot_min_spread_rad must be below π/2, got {}",
+                "pivot_min_spread_rad must be below {most:.4} rad (no set of rods spreads \
+                 more), got {}",
                 self.pivot_min_spread_rad
             ));
         }
@@ -189,6 +191,11 @@ mod tests {
     #[test]
     fn tolerances_refuse_limits_nothing_could_be_judged_by() {
         assert!(Tolerances::default().check().is_ok());
+        let widest = Tolerances {
+            pivot_min_spread_rad: 0.955,
+            ..Default::default()
+        };
+        assert!(widest.check().is_ok());
         let bad = [
             Tolerances {
                 pivot_max_rms_residual_m: 0.0,
@@ -199,7 +206,7 @@ mod tests {
                 ..Default::default()
             },
             Tolerances {
-                pivot_min_spread_rad: 2.0,
+                pivot_min_spread_rad: 0.96,
                 ..Default::default()
             },
             Tolerances {
