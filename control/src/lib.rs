@@ -7,6 +7,7 @@
 //!
 //! Units are SI throughout (m, s, N, Pa, rad). Frames are described in [`frames`].
 
+pub mod calibration;
 pub mod classify;
 pub mod frames;
 pub mod kinematics;

@@ -1,0 +1,26 @@
+//! Calibration math for bringing up a rig (issue 15): the pivot (incision) from rod lines, the
+//! tissue frame from touched surface points, and the tactile array's tare, gains and faulty
+//! elements; each result carries its residual and [`tolerance::Check`]s against configured
+//! tolerances.
+//!
+//! Pure functions over recorded data: the procedures that move the arm and record the data,
+//! the calibration file and the daemon's verbs are not here (docs/calibration.md, "Rig
+//! calibration").
+
+pub mod pivot;
+pub mod tactile;
+pub mod tissue_frame;
+pub mod tolerance;
+
+#[cfg(test)]
+mod kinematics_tests;
+#[cfg(test)]
+mod test_normals;
+
+pub use pivot::{PivotFit, PivotFitError, RodLine, fit_pivot};
+pub use tactile::{
+    ElementCalibration, ElementStatus, Recording, TactileCalibration, TactileCalibrationError,
+    TactileSettings, Tare, calibrate_gains,
+};
+pub use tissue_frame::{ArteryCourse, TissueFit, TissueFrameError, YawSource, fit_tissue_frame};
+pub use tolerance::{Bound, Check, Tolerances, all_passed};
