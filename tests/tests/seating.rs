@@ -1,8 +1,8 @@
-//! `beatslide`'s seating stroke through the real daemon on the simulated bench: with
-//! `seat_stroke_m` set, the first mark moves the arm back along the surgeon's approach and
-//! onto the placement again before it marks (the daemon carries out a marking tracker's
-//! moves, as the lockstep runner does); the approach the tracker was handed is recorded, so
-//! that replay reproduces the trial bit for bit.
+//! `beatslide`'s first mark from both sides through the real daemon on the simulated bench:
+//! with `seat_stroke_m` set, the first mark strokes the arm out along +z and back, marks, does
+//! the same along -z, and reports the midpoint once (the daemon carries out a marking
+//! tracker's moves, as the lockstep runner does); the trial is recorded so that replay
+//! reproduces it bit for bit.
 
 mod e2e;
 
@@ -25,9 +25,14 @@ fn sensor(c: &mut Client) -> (f64, f64) {
     )
 }
 
-/// The daemon on the shipped sim config with `beatslide` seating by 8 mm.
-fn start_seating(dir: &std::path::Path) -> (e2e::Running, Client) {
-    let config = write_config(dir, &Setup::default());
+/// The daemon on the shipped sim config with `beatslide` seating by 8 mm, simulating
+/// `time_scale` times faster than real time.
+fn start_seating(dir: &std::path::Path, time_scale: f64) -> (e2e::Running, Client) {
+    let setup = Setup {
+        time_scale,
+        ..Setup::default()
+    };
+    let config = write_config(dir, &setup);
     let text = std::fs::read_to_string(&config).expect("config");
     let seated = text.replace(
         "name: \"seed2002\",",
@@ -63,17 +68,22 @@ fn move_onto(c: &mut Client, at: (f64, f64)) -> (f64, f64) {
 #[test]
 fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
     let dir = tempfile::tempdir().expect("tmp");
-    let (daemon, mut c) = start_seating(dir.path());
+    // Slow enough that the status polls see each stroke (40x would step over them).
+    let (daemon, mut c) = start_seating(dir.path(), 4.0);
     let placements = enable_and_subscribe(&mut c);
 
     // The first placement, then its mark: the arm leaves the placement by most of the
-    // stroke (the seed's PD stops short of a move's end) and comes back before the result.
+    // stroke (the seed's PD stops short of a move's end), to both sides, and comes back
+    // before the one result.
     let home = move_onto(&mut c, placements[0]);
     call(&mut c, "mark", json!({}));
     let mut farthest: f64 = 0.0;
+    let (mut above, mut below): (f64, f64) = (0.0, 0.0);
     let result = loop {
         let (x, z) = sensor(&mut c);
         farthest = farthest.max((x - home.0).hypot(z - home.1));
+        above = above.max(z - home.1);
+        below = below.min(z - home.1);
         match c.next_event(Duration::from_millis(20)).expect("event") {
             Some(e) if e["event"] == "detection" && e["kind"] != "pulse" => break e,
             Some(e) => assert!(e["event"] != "fault", "fault while marking: {e}"),
@@ -85,6 +95,12 @@ fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
         (0.004..0.012).contains(&farthest),
         "the arm went {:.1} mm from the placement while marking",
         farthest * 1e3
+    );
+    assert!(
+        above > 0.003 && below < -0.003,
+        "the strokes went {:.1} mm to +z and {:.1} mm to -z",
+        above * 1e3,
+        below * 1e3
     );
     let back = sensor(&mut c);
     assert!(
@@ -126,7 +142,7 @@ fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
 #[test]
 fn stop_during_the_stroke_holds_the_arm_and_the_next_mark_needs_no_restart() {
     let dir = tempfile::tempdir().expect("tmp");
-    let (daemon, mut c) = start_seating(dir.path());
+    let (daemon, mut c) = start_seating(dir.path(), Setup::default().time_scale);
     let placements = enable_and_subscribe(&mut c);
     let home = move_onto(&mut c, placements[0]);
     call(&mut c, "mark", json!({}));

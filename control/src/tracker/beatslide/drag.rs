@@ -27,6 +27,12 @@ impl Drag {
         self.dir
     }
 
+    /// Forget which way the sensor trails (it rests near the belief), keeping where the
+    /// belief was: the next motion sets the direction afresh.
+    pub fn forget_direction(&mut self) {
+        self.dir = [0.0, 0.0];
+    }
+
     /// Move the belief to `believed` with the lag's length `lag_m`; returns the new
     /// direction. Non-finite positions are ignored.
     pub fn update(&mut self, believed: SurfacePoint, lag_m: f64) -> [f64; 2] {

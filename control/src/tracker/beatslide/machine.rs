@@ -17,7 +17,7 @@ mod lost;
 mod seating;
 mod sliding;
 
-use seating::Stroke;
+use seating::{SeatedMark, SideMark, Stroke};
 
 use super::beat_fix::{BeatFix, BeatMiss, SpatialPrior, analyse_window};
 use super::drag::Drag;
@@ -210,6 +210,10 @@ pub struct BeatSlide {
     seeds: Vec<Observation>,
     seed_points: Vec<SurfacePoint>,
     seed_sensors: Vec<SurfacePoint>,
+    /// The first placement, where the seating strokes return to, and its mark made from
+    /// the first side while the second is made (`machine/seating.rs`).
+    seat_home: Option<SurfacePoint>,
+    first_side: Option<SideMark>,
     filter: Option<PathFilter>,
     /// The artery's motion across its course that the path model does not explain.
     tissue: TissueMotion,
@@ -265,6 +269,8 @@ impl BeatSlide {
             seeds: Vec::with_capacity(MAX_SEEDS),
             seed_points: Vec::with_capacity(MAX_SEEDS),
             seed_sensors: Vec::with_capacity(MAX_SEEDS),
+            seat_home: None,
+            first_side: None,
             filter: None,
             tissue: TissueMotion::new(MAX_TISSUE_SD_M),
             anchor: None,
@@ -560,13 +566,29 @@ impl BeatSlide {
                 self.learn_pulse(&found, &fit, t - since, t);
                 let lag_dir = self.history.since(since).mean_lag();
                 let raw = SurfacePoint::new(sensor.x_m, sensor.z_m + fit.offset_z_m);
+                let side = SideMark {
+                    raw,
+                    sd_m: self.fix_sd(&fit),
+                    sensor,
+                };
+                let (raw, side_sd) = match self.seated_mark(side, t) {
+                    SeatedMark::OtherSide => return,
+                    SeatedMark::Both { raw, sd_m } => (raw, Some(sd_m)),
+                    SeatedMark::NotSeated => (raw, None),
+                };
                 // Where the sensor trailed before this mark is unknown until the robot has
                 // been seen to move: that part of the lag is uncertainty.
                 let known = lag_dir[0].hypot(lag_dir[1]).min(1.0);
+                // A mark made from both sides has no lag left in it.
+                let (lag_dir, known) = if side_sd.is_some() {
+                    ([0.0, 0.0], 1.0)
+                } else {
+                    (lag_dir, known)
+                };
                 let observation = Observation {
                     point: raw,
-                    sd_m: self
-                        .fix_sd(&fit)
+                    sd_m: side_sd
+                        .unwrap_or_else(|| self.fix_sd(&fit))
                         .hypot(self.params.lag_prior_m * (1.0 - known)),
                     lag_dir,
                 };
@@ -587,6 +609,7 @@ impl BeatSlide {
             }
             Err(why) => {
                 self.last_miss = Some(why);
+                self.first_side = None;
                 if window_s + self.params.mark_extend_s <= self.params.mark_max_window_s + 1e-9 {
                     self.state = State::Marking {
                         since_s: Some(since),
@@ -779,6 +802,8 @@ impl Tracker for BeatSlide {
     fn mark(&mut self) -> Result<(), TrackerError> {
         match self.phase() {
             TrackerPhase::Seeding { .. } => {
+                self.first_side = None;
+                self.seat_home = None;
                 if self.seeds.is_empty() && self.params.seat_stroke_m > 0.0 {
                     self.state = State::Seating {
                         plan: None,
@@ -870,16 +895,6 @@ impl Tracker for BeatSlide {
     fn target_unreachable(&mut self) {
         if matches!(self.phase(), TrackerPhase::Tracking) {
             self.pending_end = Some(EndReason::WorkspaceEdge);
-        }
-    }
-
-    fn approach(&mut self, believed: SurfacePoint) {
-        // Without the seating stroke the approach's lag is not known (a short approach
-        // leaves the rod's touchdown bend), and taking it as known errs more
-        // (docs/tracker-beatslide.md, "The first placement").
-        if self.params.seat_stroke_m > 0.0 && self.history.newest_t_s().is_none() {
-            self.drag
-                .update(self.sensor_from_belief(believed), self.params.lag_prior_m);
         }
     }
 

@@ -78,11 +78,12 @@ pub struct BeatSlideParams {
     pub tilt_deflection: f64,
     /// Speed of the moves back to the last fix, m/s.
     pub return_speed_m_s: f64,
-    /// The first mark begins with a stroke this far back along the approach and forward
-    /// again, so that the sensor's lag trails a known motion (`machine/seating.rs`), m; 0
-    /// (the default) marks where the surgeon left it. 8 mm cuts the first seed points more
-    /// than 2 mm off on the scene families by four fifths but doubles the SD on the shipped
-    /// arcs, for reasons not yet found (docs/tracker-beatslide.md, "The first placement").
+    /// The first mark is made from both sides: a stroke this far along +z and back, a mark,
+    /// the same along -z, a second mark, and their midpoint is the seed point, so that
+    /// where the rod rests off the belief cancels (`machine/seating.rs`), m; 0 (the
+    /// default) marks once where the surgeon left it. 8 mm halves the points more than
+    /// 2 mm off on the scene families, but costs the shipped arcs some of their figures
+    /// (docs/tracker-beatslide.md, "The first placement").
     pub seat_stroke_m: f64,
 }
 
