@@ -6,6 +6,7 @@ mod check_config;
 pub mod console;
 mod demo;
 mod fem;
+mod lengths;
 mod recover;
 mod replay;
 mod sim;
@@ -21,13 +22,13 @@ use clap::{Parser, Subcommand};
     version,
     about = "Tactile artery tracking: console, simulator and tools"
 )]
-struct Cli {
+pub(crate) struct Cli {
     #[command(subcommand)]
-    command: Command,
+    pub(crate) command: Command,
 }
 
 #[derive(Debug, Subcommand)]
-enum Command {
+pub(crate) enum Command {
     /// Check a daemon configuration, scene or FEM model file and what it refers to; report
     /// every problem with file, line and field.
     CheckConfig(check_config::Args),
