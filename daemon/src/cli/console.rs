@@ -2,6 +2,7 @@
 //! connects to the daemon's socket, sends one request and prints the reply (or, for `track`
 //! and `watch`, follows the event stream).
 
+use crate::cli::daemon_config;
 use crate::cli::lengths::{self, Metres};
 use crate::cli::stdout::outln;
 
@@ -19,15 +20,24 @@ pub struct Conn {
     /// The daemon's console socket (default: $PULSETRACK_SOCKET, else the config's).
     #[arg(long)]
     pub socket: Option<PathBuf>,
-    /// Read the socket path from this daemon config (default: the embedded sim config).
+    /// Read the socket path and the daemon's user from this daemon config (default: the
+    /// shipped systemd unit's /etc/pulsetrack/lab.ron when installed, else the embedded
+    /// sim config a `pulsetrackd` started by hand uses).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Print raw JSON replies and events.
+    /// Print raw JSON replies and events (and errors as JSON).
     #[arg(long)]
     pub json: bool,
 }
 
 impl Conn {
+    fn daemon_config(&self) -> Result<crate::pulsetrackd::LoadedConfig, String> {
+        daemon_config::load(
+            self.config.as_deref(),
+            std::path::Path::new(daemon_config::UNIT_CONFIG),
+        )
+    }
+
     pub fn socket_path(&self) -> Result<PathBuf, String> {
         if let Some(s) = &self.socket {
             return Ok(s.clone());
@@ -37,9 +47,7 @@ impl Conn {
         {
             return Ok(PathBuf::from(s));
         }
-        let loaded = crate::pulsetrackd::LoadedConfig::load(self.config.as_deref())
-            .map_err(|e| e.to_string())?;
-        Ok(PathBuf::from(loaded.config.console.socket_path))
+        Ok(PathBuf::from(self.daemon_config()?.config.console.socket_path))
     }
 
     /// Connect to the daemon, trusting only a socket served by root, by this user or by
@@ -51,8 +59,7 @@ impl Conn {
     }
 
     fn trusted_uids(&self) -> Result<Vec<u32>, String> {
-        let loaded = crate::pulsetrackd::LoadedConfig::load(self.config.as_deref())
-            .map_err(|e| e.to_string())?;
+        let loaded = self.daemon_config()?;
         let Some(name) = loaded.config.console.daemon_user else {
             return Ok(Vec::new());
         };

@@ -4,6 +4,7 @@ mod bench;
 mod bound;
 mod check_config;
 mod completions;
+pub mod daemon_config;
 pub mod console;
 mod demo;
 mod fem;
