@@ -3,6 +3,7 @@
 //! and `watch`, follows the event stream).
 
 use crate::cli::daemon_config;
+use crate::cli::failure::{self, Failure};
 use crate::cli::lengths::{self, Metres};
 use crate::cli::stdout::outln;
 
@@ -47,7 +48,9 @@ impl Conn {
         {
             return Ok(PathBuf::from(s));
         }
-        Ok(PathBuf::from(self.daemon_config()?.config.console.socket_path))
+        Ok(PathBuf::from(
+            self.daemon_config()?.config.console.socket_path,
+        ))
     }
 
     /// Connect to the daemon, trusting only a socket served by root, by this user or by
@@ -209,13 +212,26 @@ impl Verb {
 
 const TIMEOUT: Duration = Duration::from_secs(15);
 
-pub fn run(verb: &Verb) -> ExitCode {
-    match run_inner(verb.conn(), verb) {
-        Ok(code) => code,
-        Err(e) => {
-            eprintln!("pulsetrack: {e}");
-            ExitCode::FAILURE
+impl Verb {
+    /// The subcommand's name, for error reports.
+    fn name(&self) -> &'static str {
+        match self {
+            Verb::Track(_) => "track",
+            Verb::Watch(_) => "watch",
+            other => request(other).map_or("console", |(name, _)| name),
         }
+    }
+}
+
+pub fn run(verb: &Verb) -> ExitCode {
+    let conn = verb.conn();
+    let c = match conn.connect() {
+        Ok(c) => c,
+        Err(e) => return failure::report(verb.name(), conn.json, Failure::Unreachable, &e),
+    };
+    match run_inner(c, conn, verb) {
+        Ok(code) => code,
+        Err(e) => failure::failed(verb.name(), conn.json, &e),
     }
 }
 
@@ -251,8 +267,7 @@ pub fn request(verb: &Verb) -> Option<(&'static str, Value)> {
     })
 }
 
-fn run_inner(conn: &Conn, verb: &Verb) -> Result<ExitCode, String> {
-    let mut c = conn.connect()?;
+fn run_inner(mut c: Client, conn: &Conn, verb: &Verb) -> Result<ExitCode, String> {
     let (name, args) = match verb {
         Verb::Track(a) => {
             let length_m = lengths::either(a.length_mm, a.length_m);
@@ -616,7 +631,15 @@ mod tests {
     #[test]
     fn millimetres_and_metres_send_the_same_request() {
         let mm = sent(&["move", "--x-mm", "12", "--z-mm", "-2", "--speed-mm-s", "10"]);
-        let m = sent(&["move", "--x-m", "0.012", "--z-m", "-0.002", "--speed-m-s", "0.01"]);
+        let m = sent(&[
+            "move",
+            "--x-m",
+            "0.012",
+            "--z-m",
+            "-0.002",
+            "--speed-m-s",
+            "0.01",
+        ]);
         assert_eq!(mm, m);
         assert_eq!(
             mm.1,
@@ -655,9 +678,23 @@ mod tests {
                 "--x-mm",
                 "--x-m",
             ),
-            (&["jog", "--dz-mm", "1", "--dz-m", "0.001"][..], "--dz-mm", "--dz-m"),
             (
-                &["move", "--x-mm", "1", "--z-mm", "0", "--speed-mm-s", "5", "--speed-m-s", "0.005"][..],
+                &["jog", "--dz-mm", "1", "--dz-m", "0.001"][..],
+                "--dz-mm",
+                "--dz-m",
+            ),
+            (
+                &[
+                    "move",
+                    "--x-mm",
+                    "1",
+                    "--z-mm",
+                    "0",
+                    "--speed-mm-s",
+                    "5",
+                    "--speed-m-s",
+                    "0.005",
+                ][..],
                 "--speed-mm-s",
                 "--speed-m-s",
             ),
@@ -668,7 +705,11 @@ mod tests {
             ),
         ] {
             let e = parse(args).expect_err("both forms");
-            assert_eq!(e.kind(), clap::error::ErrorKind::ArgumentConflict, "{args:?}");
+            assert_eq!(
+                e.kind(),
+                clap::error::ErrorKind::ArgumentConflict,
+                "{args:?}"
+            );
             let text = e.to_string();
             assert!(text.contains(a) && text.contains(b), "{args:?}: {text}");
             assert_eq!(e.exit_code(), 2, "a usage error");
@@ -683,13 +724,20 @@ mod tests {
             (&["move", "--x-mm", "nan", "--z-mm", "0"][..], "--x-mm"),
             (&["move", "--x-mm", "0", "--z-mm", "inf"][..], "--z-mm"),
             (&["move", "--x-m", "12", "--z-mm", "0"][..], "--x-m"),
-            (&["move", "--x-mm", "0", "--z-mm", "0", "--speed-mm-s", "-1"][..], "--speed-mm-s"),
+            (
+                &["move", "--x-mm", "0", "--z-mm", "0", "--speed-mm-s", "-1"][..],
+                "--speed-mm-s",
+            ),
             (&["jog", "--dx-mm", "1e9"][..], "--dx-mm"),
             (&["jog", "--dz-m", "-inf"][..], "--dz-m"),
             (&["track", "--length-mm", "0"][..], "--length-mm"),
         ] {
             let e = parse(args).expect_err("a bad value");
-            assert_eq!(e.kind(), clap::error::ErrorKind::ValueValidation, "{args:?}");
+            assert_eq!(
+                e.kind(),
+                clap::error::ErrorKind::ValueValidation,
+                "{args:?}"
+            );
             let text = e.to_string();
             assert!(text.contains(&format!("'{flag} ")), "{args:?}: {text}");
         }
@@ -704,7 +752,13 @@ mod tests {
             .expect("move")
             .render_long_help()
             .to_string();
-        assert!(help.contains("--x-mm") && help.contains("--speed-mm-s"), "{help}");
-        assert!(!help.contains("--x-m ") && !help.contains("--speed-m-s"), "{help}");
+        assert!(
+            help.contains("--x-mm") && help.contains("--speed-mm-s"),
+            "{help}"
+        );
+        assert!(
+            !help.contains("--x-m ") && !help.contains("--speed-m-s"),
+            "{help}"
+        );
     }
 }

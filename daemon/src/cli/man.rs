@@ -46,8 +46,7 @@ fn write_all(dir: &Path) -> Result<Vec<PathBuf>, String> {
     let mut written = Vec::new();
     for (name, page) in pages()? {
         let path = dir.join(name);
-        std::fs::write(&path, page)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        std::fs::write(&path, page).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         written.push(path);
     }
     Ok(written)
@@ -80,7 +79,15 @@ mod tests {
         assert_eq!(name, "pulsetrack.1");
         let text = String::from_utf8(top.clone()).expect("UTF-8");
         assert!(text.starts_with(".ie") || text.contains(".TH"), "{text}");
-        for sub in ["status", "move", "sim", "bench", "fem", "completions", "man"] {
+        for sub in [
+            "status",
+            "move",
+            "sim",
+            "bench",
+            "fem",
+            "completions",
+            "man",
+        ] {
             assert!(text.contains(sub), "the top page lacks {sub}:\n{text}");
         }
     }
@@ -94,14 +101,29 @@ mod tests {
             .iter()
             .map(|f| f.file_name().expect("name").to_string_lossy().into_owned())
             .collect();
-        for want in ["pulsetrack.1", "pulsetrack-move.1", "pulsetrack-sim.1", "pulsetrack-man.1"] {
+        for want in [
+            "pulsetrack.1",
+            "pulsetrack-move.1",
+            "pulsetrack-sim.1",
+            "pulsetrack-man.1",
+        ] {
             assert!(names.iter().any(|n| n == want), "{want} not in {names:?}");
         }
         let mv = std::fs::read_to_string(out.join("pulsetrack-move.1")).expect("move page");
-        assert!(mv.contains("x\\-mm") && mv.contains("pulsetrack\\-move"), "{mv}");
-        assert!(!mv.contains("x\\-m "), "the deprecated flags stay hidden:\n{mv}");
+        assert!(
+            mv.contains("x\\-mm") && mv.contains("pulsetrack\\-move"),
+            "{mv}"
+        );
+        assert!(
+            !mv.contains("x\\-m "),
+            "the deprecated flags stay hidden:\n{mv}"
+        );
         for f in &files {
-            assert!(std::fs::metadata(f).expect("file").len() > 100, "{}", f.display());
+            assert!(
+                std::fs::metadata(f).expect("file").len() > 100,
+                "{}",
+                f.display()
+            );
         }
     }
 

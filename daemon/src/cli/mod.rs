@@ -4,12 +4,14 @@ mod bench;
 mod bound;
 mod check_config;
 mod completions;
-pub mod daemon_config;
 pub mod console;
+pub mod daemon_config;
 mod demo;
+mod failure;
 mod fem;
 mod lengths;
 mod man;
+mod progress;
 mod recover;
 mod replay;
 mod sim;
@@ -18,6 +20,8 @@ mod stdout;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+
+use failure::Failure;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -60,6 +64,26 @@ pub(crate) enum Command {
     Man(man::Args),
 }
 
+/// A command line clap refused: help and version as clap prints them, anything else as a
+/// usage error (exit 2), in JSON when `--json` was among the arguments.
+fn usage_error(e: &clap::Error, command: &str, json: bool) -> ExitCode {
+    use clap::error::ErrorKind;
+    if !json
+        || matches!(
+            e.kind(),
+            ErrorKind::DisplayHelp
+                | ErrorKind::DisplayVersion
+                | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+        )
+    {
+        // Prints to stdout or stderr as fits the kind; a closed pipe is not worth a panic.
+        let _ = e.print();
+        return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
+    }
+    let reason = e.render().to_string();
+    failure::report(command, true, Failure::Usage, reason.trim_end())
+}
+
 /// The whole command tree, for completions, man pages and tests.
 pub(crate) fn command() -> clap::Command {
     use clap::CommandFactory;
@@ -67,7 +91,17 @@ pub(crate) fn command() -> clap::Command {
 }
 
 pub fn run() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let args: Vec<String> = std::env::args().skip(1).collect();
+            let command = args
+                .iter()
+                .find(|a| !a.starts_with('-'))
+                .map_or("", String::as_str);
+            return usage_error(&e, command, args.iter().any(|a| a == "--json"));
+        }
+    };
     match cli.command {
         Command::CheckConfig(args) => check_config::run(&args),
         Command::Demo(args) => demo::run(&args),
@@ -117,7 +151,11 @@ mod tests {
         cmd.clone().debug_assert();
         let mut missing = Vec::new();
         without_help(&cmd, "pulsetrack", &mut missing);
-        assert!(missing.is_empty(), "no help text for: {}", missing.join(", "));
+        assert!(
+            missing.is_empty(),
+            "no help text for: {}",
+            missing.join(", ")
+        );
         assert!(cmd.get_subcommands().count() > 10, "the walk saw the tree");
         // The walk finds a bare flag, positional and subcommand at depth.
         let bare = clap::Command::new("t").subcommand(

@@ -58,10 +58,7 @@ struct Report<'a> {
 pub fn run(args: &Args) -> ExitCode {
     match run_inner(args) {
         Ok(code) => code,
-        Err(message) => {
-            eprintln!("pulsetrack sim: {message}");
-            ExitCode::FAILURE
-        }
+        Err(message) => crate::cli::failure::failed("sim", args.json, &message),
     }
 }
 
