@@ -16,6 +16,7 @@ use control::types::ELEMENTS;
 use serde::Serialize;
 use sim::scene::{ArteryPath, Scene};
 use sim::trial::{TrialResult, TrialsSummary};
+use sim::trial_event::TrialEvent;
 
 use crate::plot::{Chart, Mark, Series, write_chart};
 
@@ -39,9 +40,14 @@ pub struct Args {
     /// Write plots (PNG and SVG) into this directory.
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// Print every tracker event of every trial on stderr, with where the sensor truly was.
+    /// Print every tracker event of every trial on stderr as JSON lines (one object each:
+    /// kind and fields, believed and true sensor positions in metres; docs/sim-json.md),
+    /// and each trial's end as a `trial` object, so that every stderr line is JSON.
     #[arg(long)]
     pub events: bool,
+    /// With --events: lines for people (millimetres) instead of JSON.
+    #[arg(long, requires = "events")]
+    pub events_text: bool,
     /// The daemon configuration giving the rig's geometry, gains and tracker constants;
     /// default: the shipped simulator configuration.
     #[arg(long)]
@@ -87,6 +93,14 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
         let seed = args.seed.wrapping_add(i as u64);
         let trial = sim::runner::run_trial(&scene, &config, &args.tracker, seed)
             .map_err(|e| e.to_string())?;
+        if args.events && !args.events_text {
+            for event in &trial.log {
+                eprintln!("{}", event_line(i + 1, seed, event)?);
+            }
+            eprintln!("{}", trial_line(i + 1, &trial)?);
+            trials.push(trial);
+            continue;
+        }
         eprintln!(
             "trial {}/{} (seed {seed}): {} after {:.0} s simulated, {} points, lateral error SD {:.2} mm, {} backtracks, {:.2} s wall",
             i + 1,
@@ -98,9 +112,9 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
             trial.backtracks,
             trial.wall_s
         );
-        if args.events {
-            for line in &trial.log {
-                eprintln!("  {line}");
+        if args.events_text {
+            for event in &trial.log {
+                eprintln!("  {}", event.describe());
             }
         }
         trials.push(trial);
@@ -124,6 +138,33 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
         print_summary(&scene, &args.tracker, &trials);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// One event as a JSON line, tagged with its trial (1-based) and the trial's seed.
+fn event_line(trial: u32, seed: u64, event: &TrialEvent) -> Result<String, String> {
+    let mut v = serde_json::to_value(event).map_err(|e| e.to_string())?;
+    if let Some(o) = v.as_object_mut() {
+        o.insert("trial".into(), trial.into());
+        o.insert("trial_seed".into(), seed.into());
+    }
+    Ok(v.to_string())
+}
+
+/// A trial's end as a JSON line (`kind: "trial"`), after its events.
+fn trial_line(trial: u32, t: &TrialResult) -> Result<String, String> {
+    Ok(serde_json::json!({
+        "kind": "trial",
+        "trial": trial,
+        "trial_seed": t.seed,
+        "end_reason": t.end_reason,
+        "completed": t.completed,
+        "points": t.located.len(),
+        "lateral_error_sd_m": t.lateral_error_m.sd,
+        "backtracks": t.backtracks,
+        "duration_s": t.duration_s,
+        "wall_s": t.wall_s,
+    })
+    .to_string())
 }
 
 fn print_summary(scene: &Scene, tracker: &str, trials: &[TrialResult]) {
