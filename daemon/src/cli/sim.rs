@@ -119,13 +119,11 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
         }
         trials.push(trial);
     }
-    if let Some(dir) = &args.plot {
+    // The results first: a chart that cannot be drawn must not lose them.
+    let plotted = args.plot.as_ref().map(|dir| {
         let path = ArteryPath::from_spec(&scene.artery.path).map_err(|e| e.to_string())?;
-        let files = plot_trials(&config, &scene, &path, &trials, dir).map_err(|e| e.to_string())?;
-        for f in files {
-            eprintln!("wrote {}", f.display());
-        }
-    }
+        plot_trials(&config, &scene, &path, &trials, dir).map_err(|e| e.to_string())
+    });
     if args.json {
         let report = Report {
             scene: &scene.name,
@@ -136,6 +134,15 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
         outln!("{text}");
     } else {
         print_summary(&scene, &args.tracker, &trials);
+    }
+    if let Some(plotted) = plotted {
+        let plotted = plotted?;
+        for note in &plotted.notes {
+            eprintln!("plot: {note}");
+        }
+        for f in &plotted.files {
+            eprintln!("wrote {}", f.display());
+        }
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -213,15 +220,47 @@ fn print_summary(scene: &Scene, tracker: &str, trials: &[TrialResult]) {
     );
 }
 
+/// The charts written, and what could not be drawn and why.
+#[derive(Debug, Default)]
+struct Plotted {
+    files: Vec<PathBuf>,
+    notes: Vec<String>,
+}
+
+/// A trial's legend entry: a trial that located nothing is shown as such.
+fn trial_label(i: usize, t: &TrialResult) -> String {
+    if t.located.is_empty() {
+        format!(
+            "trial {} (seed {}): never seeded ({}), nothing located",
+            i + 1,
+            t.seed,
+            t.end_reason
+        )
+    } else {
+        format!("trial {} (seed {})", i + 1, t.seed)
+    }
+}
+
 fn plot_trials(
     config: &Config,
     scene: &Scene,
     path: &ArteryPath,
     trials: &[TrialResult],
     dir: &Path,
-) -> Result<Vec<PathBuf>, crate::plot::PlotError> {
+) -> Result<Plotted, crate::plot::PlotError> {
     let mm = |v: f64| v * 1e3;
     let mut files = Vec::new();
+    let mut notes = Vec::new();
+    for (i, t) in trials.iter().enumerate() {
+        if t.located.is_empty() {
+            notes.push(format!(
+                "trial {} (seed {}): the tracker never seeded ({}); it located no point to plot",
+                i + 1,
+                t.seed,
+                t.end_reason
+            ));
+        }
+    }
     // Top view: the true path, every trial's located points, and where the sensor truly was.
     let mut top = Chart::new(
         format!("{}: located points (top view)", scene.name),
@@ -239,7 +278,7 @@ fn plot_trials(
     top.equal_aspect = true;
     for (i, t) in trials.iter().enumerate() {
         top = top.with(Series::new(
-            format!("trial {} (seed {})", i + 1, t.seed),
+            trial_label(i, t),
             t.located.iter().map(|p| (mm(p.x_m), mm(p.z_m))).collect(),
             Mark::LinePoints,
         ));
@@ -273,7 +312,7 @@ fn plot_trials(
     );
     for (i, t) in trials.iter().enumerate() {
         err = err.with(Series::new(
-            format!("trial {}", i + 1),
+            trial_label(i, t),
             t.located
                 .iter()
                 .map(|p| (mm(p.along_path_m), mm(p.lateral_error_m)))
@@ -291,7 +330,11 @@ fn plot_trials(
             Mark::Crosses,
         ));
     }
-    files.extend(write_chart(&err, dir, "error_along_path")?);
+    if trials.iter().all(|t| t.located.is_empty()) {
+        notes.push("error_along_path not drawn: no trial located a point".into());
+    } else {
+        files.extend(write_chart(&err, dir, "error_along_path")?);
+    }
     // A 4 s trace of all ten elements at the first placement, band-passed with the seed's
     // filter as the tracker configures it (the seed's Fig. 2).
     if let Some(t) = trials.first()
@@ -343,5 +386,5 @@ fn plot_trials(
         }
         files.extend(write_chart(&trace, dir, "elements_4s")?);
     }
-    Ok(files)
+    Ok(Plotted { files, notes })
 }
