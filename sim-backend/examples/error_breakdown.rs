@@ -13,6 +13,7 @@
 
 use pulsetrack_sim::runner::run_trial;
 use pulsetrack_sim::scene::ArteryPath;
+use pulsetrack_sim::trial_event::EventKind;
 
 fn stats(v: &[f64]) -> (f64, f64) {
     let n = v.len() as f64;
