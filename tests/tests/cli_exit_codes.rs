@@ -112,3 +112,45 @@ fn generated_help_completions_and_pages_exit_0() {
         assert!(!out.stdout.is_empty(), "{args:?}");
     }
 }
+
+#[test]
+fn recover_with_json_gives_a_line_per_file_and_json_errors() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let good = dir.path().join("trial.mcap");
+    let fixture = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../daemon/tests/fixtures/v0-trial.mcap");
+    std::fs::copy(&fixture, &good).expect("copy the fixture");
+    let bad = dir.path().join("garbage.mcap");
+    std::fs::write(&bad, b"\x89MCAP0\r\n not really").expect("write");
+    let out = pulsetrack(&[
+        "recover",
+        "--json",
+        good.to_str().expect("UTF-8"),
+        bad.to_str().expect("UTF-8"),
+    ]);
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<serde_json::Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect();
+    assert_eq!(lines.len(), 1, "{stdout}");
+    assert!(
+        lines[0]["file"]
+            .as_str()
+            .expect("file")
+            .ends_with("trial.mcap")
+    );
+    let e = json_error(&out);
+    assert_eq!(
+        (e["error"].as_str(), e["command"].as_str()),
+        (Some("failed"), Some("recover"))
+    );
+    assert!(
+        e["reason"]
+            .as_str()
+            .expect("reason")
+            .contains("garbage.mcap"),
+        "{e}"
+    );
+}
