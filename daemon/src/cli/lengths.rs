@@ -85,10 +85,7 @@ fn parse(text: &str, unit: Unit, kind: Kind) -> Result<Metres, BadValue> {
     }
     if si.abs() > max {
         let hint = match unit {
-            Unit::M => format!(
-                " (this deprecated flag takes metres; the -mm flag takes {} mm)",
-                typed * 1000.0
-            ),
+            Unit::M => format!(" (this deprecated flag takes metres; for {t} mm use the -mm flag)"),
             Unit::Mm => String::new(),
         };
         return Err(BadValue(format!(
@@ -176,7 +173,10 @@ mod tests {
         assert!(position_mm("-1000").is_ok());
         // The slip the guard is for: millimetres given to a metre flag.
         let e = position_m("12").expect_err("12 m");
-        assert!(e.contains("at most 1 m") && e.contains("12000 mm"), "{e}");
+        assert!(
+            e.contains("at most 1 m") && e.contains("for 12 mm use the -mm flag"),
+            "{e}"
+        );
         let e = speed_mm_s("0").expect_err("zero speed");
         assert!(e.contains("greater than 0"), "{e}");
         let e = speed_m_s("-0.01").expect_err("negative speed");
