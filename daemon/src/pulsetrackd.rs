@@ -54,7 +54,7 @@ impl LoadedConfig {
     /// The file given, or the embedded sim default, with `{runtime}` and `{state}` in its
     /// socket and recording paths resolved for this user ([`crate::runtime_paths`]).
     pub fn load(path: Option<&Path>) -> Result<Self, config::ConfigError> {
-        let mut l = Self::load_raw(path)?;
+        let mut l = Self::load_unexpanded(path)?;
         let c = &mut l.config;
         c.console.socket_path = crate::runtime_paths::expand(&c.console.socket_path)
             .display()
@@ -65,7 +65,8 @@ impl LoadedConfig {
         Ok(l)
     }
 
-    fn load_raw(path: Option<&Path>) -> Result<Self, config::ConfigError> {
+    /// The file given, or the embedded default, with `{runtime}` and `{state}` left as written.
+    pub fn load_unexpanded(path: Option<&Path>) -> Result<Self, config::ConfigError> {
         match path {
             Some(p) => {
                 let l = config::load_file::<Config>(p)?;

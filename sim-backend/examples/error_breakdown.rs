@@ -13,6 +13,7 @@
 
 use pulsetrack_sim::runner::run_trial;
 use pulsetrack_sim::scene::ArteryPath;
+use pulsetrack_sim::trial_event::EventKind;
 
 fn stats(v: &[f64]) -> (f64, f64) {
     let n = v.len() as f64;
@@ -62,12 +63,13 @@ fn main() -> Result<(), String> {
             t.end_reason
         );
         // The misses and backtracks, with where the sensor truly was against the artery.
-        for line in t
-            .log
-            .iter()
-            .filter(|l| l.contains("Missed") || l.contains("Backtracking"))
-        {
-            println!("    {}", line.split("  {").next().unwrap_or(line));
+        for event in t.log.iter().filter(|e| {
+            matches!(
+                e.event,
+                EventKind::Missed { .. } | EventKind::Backtracking { .. }
+            )
+        }) {
+            println!("    {}", event.describe());
         }
         let mut previous: Option<(f64, f64)> = None;
         for p in &t.located {

@@ -15,8 +15,8 @@ fn main() -> Result<(), String> {
     let (cname, text) = config::shipped::SIM_CONFIG;
     let config: config::Config = config::load_str(cname, text).map_err(|e| e.to_string())?;
     let t = run_trial(&scene, &config, tracker, seed).map_err(|e| e.to_string())?;
-    for line in &t.log {
-        println!("{line}");
+    for event in &t.log {
+        println!("{}", event.describe());
     }
     println!(
         "{}: {} points, SD {:.2} mm, mean {:.2} mm, {} beats, {} backtracks, {:.1} s",

@@ -23,5 +23,6 @@ pub mod runner;
 
 pub mod scene;
 pub mod trial;
+pub mod trial_event;
 
 pub use error::SimError;

@@ -26,6 +26,7 @@ use crate::bench::Bench;
 use crate::error::SimError;
 use crate::scene::{Placing, Scene};
 use crate::trial::{LocatedSample, TrialResult};
+use crate::trial_event::{EventKind, TrialEvent};
 
 /// Simulated time allowed for the whole trial before it is stopped as `timeout`, s. The seed
 /// took about two minutes per 26 cm track.
@@ -100,7 +101,7 @@ struct Lockstep {
     approach: Option<ApproachTrail>,
     sensor_track: Vec<(f64, SurfacePoint, SurfacePoint)>,
     next_track_sample_s: f64,
-    log: Vec<String>,
+    log: Vec<TrialEvent>,
     /// The true sensor at each recent frame, to score a localization at the time it was
     /// made (its event may come out a few frames later, once the next move has begun).
     recent_truth: std::collections::VecDeque<(f64, SurfacePoint)>,
@@ -428,12 +429,8 @@ impl Lockstep {
             return Stop::Fault(e.to_string());
         }
         self.last_move_target = None;
-        self.log.push(format!(
-            "{:8.2} s  {what}: {shortfall} at ({:.2}, {:.2}) mm",
-            self.now(),
-            target.x_m * 1e3,
-            target.z_m * 1e3
-        ));
+        let kind = EventKind::stopped_short(what.clone(), target, &shortfall);
+        self.log_event(kind);
         Stop::ShortOfTarget {
             what,
             target,
@@ -502,6 +499,20 @@ impl Lockstep {
         Ok(())
     }
 
+    /// Log `event` with where the robot believes the sensor is and where it truly is.
+    fn log_event(&mut self, event: EventKind) {
+        let truth = self.bench.truth();
+        let off = self.bench.path().nearest(truth.sensor);
+        self.log.push(TrialEvent {
+            t_s: self.now(),
+            believed_sensor: SurfacePoint::new(self.believed.x, self.believed.z),
+            true_sensor: truth.sensor,
+            off_artery_m: off.offset_m,
+            along_path_m: off.s_m,
+            event,
+        });
+    }
+
     /// Feed one frame to the tracker and act on its answer; returns the event.
     fn feed(&mut self, frame: &TactileFrame) -> Result<Option<TrackerEvent>, Stop> {
         let input = TrackerInput {
@@ -517,18 +528,7 @@ impl Lockstep {
             }
         }
         if let Some(ev) = out.event {
-            let truth = self.bench.truth();
-            let off = self.bench.path().nearest(truth.sensor);
-            self.log.push(format!(
-                "{:8.2} s  believed ({:7.2}, {:7.2}) mm  true ({:7.2}, {:7.2}) mm  {:5.2} mm off the artery at {:5.1} mm  {ev:?}",
-                self.now(),
-                self.believed.x * 1e3,
-                self.believed.z * 1e3,
-                truth.sensor.x_m * 1e3,
-                truth.sensor.z_m * 1e3,
-                off.offset_m * 1e3,
-                off.s_m * 1e3,
-            ));
+            self.log_event(EventKind::from(ev));
             match ev {
                 TrackerEvent::Located(p) => {
                     let sensor = self.true_sensor_at(p.t_s);

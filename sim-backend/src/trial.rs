@@ -147,9 +147,9 @@ pub struct TrialResult {
     /// The sensor every 100 ms: (t, believed, true), for plots.
     #[serde(skip)]
     pub sensor_track: Vec<(f64, SurfacePoint, SurfacePoint)>,
-    /// Every tracker event with the true sensor position, one line each, for diagnosis.
+    /// Every tracker event with the believed and true sensor positions, for diagnosis.
     #[serde(skip)]
-    pub log: Vec<String>,
+    pub log: Vec<crate::trial_event::TrialEvent>,
 }
 
 impl TrialResult {

@@ -17,12 +17,12 @@
 //! setting in mm/s after `@`: `beatslide@20` runs `beatslide` with its speed set to
 //! 20 mm/s (`TrackerParams::set_speed`).
 
+use crate::cli::progress::Progress;
 use crate::cli::sim::load_config;
 use crate::cli::stdout::outln;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use config::Config;
 use rayon::prelude::*;
@@ -141,10 +141,7 @@ pub struct Report {
 pub fn run(args: &Args) -> ExitCode {
     match run_inner(args) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(message) => {
-            eprintln!("pulsetrack bench: {message}");
-            ExitCode::FAILURE
-        }
+        Err(message) => crate::cli::failure::failed("bench", args.json, &message),
     }
 }
 
@@ -279,8 +276,7 @@ fn bench(
     let jobs: Vec<(usize, usize, u32)> = (0..sources.len())
         .flat_map(|s| (0..trackers.len()).flat_map(move |t| (0..trials).map(move |i| (s, t, i))))
         .collect();
-    let done = AtomicUsize::new(0);
-    let total = jobs.len();
+    let bar = progress.then(|| Progress::new("bench", Some(jobs.len() as u64)));
     let results: Vec<Result<TrialResult, String>> = jobs
         .par_iter()
         .map(|&(s, t, i)| {
@@ -290,20 +286,22 @@ fn bench(
                 .ok_or_else(|| format!("{}: no scene drawn for trial {i}", sources[s].name()))?;
             let result = sim::runner::run_trial(scene, &configs[t], &trackers[t].name, trial_seed)
                 .map_err(|e| format!("{} with {}: {e}", scene.name, trackers[t].label));
-            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if progress {
+            if let Some(bar) = &bar {
                 let end = result
                     .as_ref()
                     .map_or("error", |r| r.end_reason.as_str())
                     .to_string();
-                eprintln!(
-                    "bench {n}/{total}: {} {} seed {trial_seed}: {end}",
+                bar.step(&format!(
+                    "{} {} seed {trial_seed}: {end}",
                     scene.name, trackers[t].label
-                );
+                ));
             }
             result
         })
         .collect();
+    if let Some(bar) = bar {
+        bar.finish();
+    }
     let mut rows = Vec::with_capacity(sources.len() * trackers.len());
     let mut it = results.into_iter();
     for source in sources {

@@ -36,10 +36,7 @@ pub struct Args {
 pub fn run(args: &Args) -> ExitCode {
     match run_inner(args) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(message) => {
-            eprintln!("pulsetrack bound: {message}");
-            ExitCode::FAILURE
-        }
+        Err(message) => crate::cli::failure::failed("bound", args.json, &message),
     }
 }
 

@@ -22,6 +22,10 @@ use sim::scene::{ArteryPath, PressureKernel, Scene};
 pub struct Args {
     /// The RON file to check: a daemon configuration, a scene or a FEM model.
     pub file: PathBuf,
+    /// Print `{"ok":true,"file":...,"summary":...}` on stdout, and a problem as a JSON error
+    /// on stderr.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// The kinds of file this checks.
@@ -36,10 +40,20 @@ const KINDS: [Kind; 3] = [Kind::Config, Kind::Scene, Kind::FemModel];
 
 pub fn run(args: &Args) -> ExitCode {
     match check(&args.file) {
+        Ok(summary) if args.json => {
+            let doc = serde_json::json!({
+                "ok": true,
+                "file": args.file.display().to_string(),
+                "summary": summary,
+            });
+            outln!("{doc}");
+            ExitCode::SUCCESS
+        }
         Ok(summary) => {
             outln!("{summary}");
             ExitCode::SUCCESS
         }
+        Err(e) if args.json => crate::cli::failure::failed("check-config", true, &e.to_string()),
         Err(e) => {
             eprintln!("{e}");
             ExitCode::FAILURE

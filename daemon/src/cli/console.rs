@@ -2,6 +2,9 @@
 //! connects to the daemon's socket, sends one request and prints the reply (or, for `track`
 //! and `watch`, follows the event stream).
 
+use crate::cli::daemon_config;
+use crate::cli::failure::{self, Failure};
+use crate::cli::lengths::{self, Metres};
 use crate::cli::stdout::outln;
 
 use std::path::PathBuf;
@@ -18,15 +21,24 @@ pub struct Conn {
     /// The daemon's console socket (default: $PULSETRACK_SOCKET, else the config's).
     #[arg(long)]
     pub socket: Option<PathBuf>,
-    /// Read the socket path from this daemon config (default: the embedded sim config).
+    /// Read the socket path and the daemon's user from this daemon config (default: the
+    /// shipped systemd unit's /etc/pulsetrack/lab.ron when installed, else the embedded
+    /// sim config a `pulsetrackd` started by hand uses).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Print raw JSON replies and events.
+    /// Print raw JSON replies and events (and errors as JSON).
     #[arg(long)]
     pub json: bool,
 }
 
 impl Conn {
+    fn daemon_config(&self) -> Result<crate::pulsetrackd::LoadedConfig, String> {
+        daemon_config::load(
+            self.config.as_deref(),
+            std::path::Path::new(daemon_config::UNIT_CONFIG),
+        )
+    }
+
     pub fn socket_path(&self) -> Result<PathBuf, String> {
         if let Some(s) = &self.socket {
             return Ok(s.clone());
@@ -36,9 +48,9 @@ impl Conn {
         {
             return Ok(PathBuf::from(s));
         }
-        let loaded = crate::pulsetrackd::LoadedConfig::load(self.config.as_deref())
-            .map_err(|e| e.to_string())?;
-        Ok(PathBuf::from(loaded.config.console.socket_path))
+        Ok(PathBuf::from(
+            self.daemon_config()?.config.console.socket_path,
+        ))
     }
 
     /// Connect to the daemon, trusting only a socket served by root, by this user or by
@@ -50,8 +62,7 @@ impl Conn {
     }
 
     fn trusted_uids(&self) -> Result<Vec<u32>, String> {
-        let loaded = crate::pulsetrackd::LoadedConfig::load(self.config.as_deref())
-            .map_err(|e| e.to_string())?;
+        let loaded = self.daemon_config()?;
         let Some(name) = loaded.config.console.daemon_user else {
             return Ok(Vec::new());
         };
@@ -76,31 +87,54 @@ pub struct Plain {
 pub struct JogArgs {
     #[command(flatten)]
     pub conn: Conn,
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub dx_m: f64,
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub dz_m: f64,
+    /// Step along x (tissue frame), mm.
+    #[arg(long, value_name = "MM", allow_hyphen_values = true, value_parser = lengths::position_mm)]
+    pub dx_mm: Option<Metres>,
+    /// Step along z (tissue frame), mm.
+    #[arg(long, value_name = "MM", allow_hyphen_values = true, value_parser = lengths::position_mm)]
+    pub dz_mm: Option<Metres>,
+    /// Deprecated: the x step in metres; use --dx-mm.
+    #[arg(long, hide = true, value_name = "M", allow_hyphen_values = true, value_parser = lengths::position_m, conflicts_with = "dx_mm")]
+    pub dx_m: Option<Metres>,
+    /// Deprecated: the z step in metres; use --dz-mm.
+    #[arg(long, hide = true, value_name = "M", allow_hyphen_values = true, value_parser = lengths::position_m, conflicts_with = "dz_mm")]
+    pub dz_m: Option<Metres>,
 }
 
 #[derive(Debug, clap::Args)]
 pub struct MoveArgs {
     #[command(flatten)]
     pub conn: Conn,
-    #[arg(long, allow_negative_numbers = true)]
-    pub x_m: f64,
-    #[arg(long, allow_negative_numbers = true)]
-    pub z_m: f64,
-    #[arg(long)]
-    pub speed_m_s: Option<f64>,
+    /// Target x of the sensor centre (tissue frame), mm.
+    #[arg(long, value_name = "MM", allow_hyphen_values = true, value_parser = lengths::position_mm, required_unless_present = "x_m")]
+    pub x_mm: Option<Metres>,
+    /// Target z of the sensor centre (tissue frame), mm.
+    #[arg(long, value_name = "MM", allow_hyphen_values = true, value_parser = lengths::position_mm, required_unless_present = "z_m")]
+    pub z_mm: Option<Metres>,
+    /// Speed of the move, mm/s (default and upper limit: control.motion.max_speed_m_s).
+    #[arg(long, value_name = "MM_PER_S", allow_hyphen_values = true, value_parser = lengths::speed_mm_s)]
+    pub speed_mm_s: Option<Metres>,
+    /// Deprecated: target x in metres; use --x-mm.
+    #[arg(long, hide = true, value_name = "M", allow_hyphen_values = true, value_parser = lengths::position_m, conflicts_with = "x_mm")]
+    pub x_m: Option<Metres>,
+    /// Deprecated: target z in metres; use --z-mm.
+    #[arg(long, hide = true, value_name = "M", allow_hyphen_values = true, value_parser = lengths::position_m, conflicts_with = "z_mm")]
+    pub z_m: Option<Metres>,
+    /// Deprecated: speed in m/s; use --speed-mm-s.
+    #[arg(long, hide = true, value_name = "M_PER_S", allow_hyphen_values = true, value_parser = lengths::speed_m_s, conflicts_with = "speed_mm_s")]
+    pub speed_m_s: Option<Metres>,
 }
 
 #[derive(Debug, clap::Args)]
 pub struct TrackArgs {
     #[command(flatten)]
     pub conn: Conn,
-    /// Length of artery to follow, m; without it, until the artery is lost.
-    #[arg(long)]
-    pub length_m: Option<f64>,
+    /// Length of artery to follow, mm; without it, until the artery is lost.
+    #[arg(long, value_name = "MM", allow_hyphen_values = true, value_parser = lengths::distance_mm)]
+    pub length_mm: Option<Metres>,
+    /// Deprecated: the length in metres; use --length-mm.
+    #[arg(long, hide = true, value_name = "M", allow_hyphen_values = true, value_parser = lengths::distance_m, conflicts_with = "length_mm")]
+    pub length_m: Option<Metres>,
     /// What this trial is (subject, specimen, condition), one line of up to 256 bytes:
     /// kept in the trial recording's metadata and in its summary.
     #[arg(long)]
@@ -178,38 +212,69 @@ impl Verb {
 
 const TIMEOUT: Duration = Duration::from_secs(15);
 
-pub fn run(verb: &Verb) -> ExitCode {
-    match run_inner(verb.conn(), verb) {
-        Ok(code) => code,
-        Err(e) => {
-            eprintln!("pulsetrack: {e}");
-            ExitCode::FAILURE
+impl Verb {
+    /// The subcommand's name, for error reports.
+    fn name(&self) -> &'static str {
+        match self {
+            Verb::Track(_) => "track",
+            Verb::Watch(_) => "watch",
+            other => request(other).map_or("console", |(name, _)| name),
         }
     }
 }
 
-fn run_inner(conn: &Conn, verb: &Verb) -> Result<ExitCode, String> {
-    let mut c = conn.connect()?;
-    let (name, args) = match verb {
+pub fn run(verb: &Verb) -> ExitCode {
+    let conn = verb.conn();
+    let c = match conn.connect() {
+        Ok(c) => c,
+        Err(e) => return failure::report(verb.name(), conn.json, Failure::Unreachable, &e),
+    };
+    match run_inner(c, conn, verb) {
+        Ok(code) => code,
+        Err(e) => failure::failed(verb.name(), conn.json, &e),
+    }
+}
+
+/// The request a one-shot verb sends (None for `track` and `watch`, which follow events).
+pub fn request(verb: &Verb) -> Option<(&'static str, Value)> {
+    Some(match verb {
         Verb::Status(_) => ("status", json!({})),
         Verb::Enable(_) => ("enable", json!({})),
         Verb::Disable(_) => ("disable", json!({})),
         Verb::Home(_) => ("home", json!({})),
-        Verb::Jog(a) => ("jog", json!({"dx_m": a.dx_m, "dz_m": a.dz_m})),
+        Verb::Jog(a) => (
+            "jog",
+            json!({
+                "dx_m": lengths::either(a.dx_mm, a.dx_m).unwrap_or(0.0),
+                "dz_m": lengths::either(a.dz_mm, a.dz_m).unwrap_or(0.0),
+            }),
+        ),
         Verb::Move(a) => (
             "move",
-            json!({"x_m": a.x_m, "z_m": a.z_m, "speed_m_s": a.speed_m_s}),
+            json!({
+                "x_m": lengths::either(a.x_mm, a.x_m),
+                "z_m": lengths::either(a.z_mm, a.z_m),
+                "speed_m_s": lengths::either(a.speed_mm_s, a.speed_m_s),
+            }),
         ),
         Verb::Mark(_) => ("mark", json!({})),
-        Verb::Track(a) => {
-            return track(&mut c, a.length_m, a.label.as_deref(), a.detach, conn.json);
-        }
         Verb::Pause(_) => ("pause", json!({})),
         Verb::Resume(_) => ("resume", json!({})),
         Verb::Stop(_) => ("stop", json!({})),
         Verb::Estop(_) => ("estop", json!({})),
         Verb::Reset(_) => ("reset", json!({})),
+        Verb::Track(_) | Verb::Watch(_) => return None,
+    })
+}
+
+fn run_inner(mut c: Client, conn: &Conn, verb: &Verb) -> Result<ExitCode, String> {
+    let (name, args) = match verb {
+        Verb::Track(a) => {
+            let length_m = lengths::either(a.length_mm, a.length_m);
+            return track(&mut c, length_m, a.label.as_deref(), a.detach, conn.json);
+        }
         Verb::Watch(a) => return watch(&mut c, &a.streams, a.tactile_every, conn.json),
+        other => request(other).ok_or("no request for this verb")?,
     };
     let reply = c.request(name, args, TIMEOUT).map_err(|e| e.to_string())?;
     let ok = reply["ok"] == Value::Bool(true);
@@ -542,4 +607,158 @@ pub fn print_summary(s: &Value) {
         );
     }
     outln!("recording  {}", s["recording"].as_str().unwrap_or("?"));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cli::{Cli, Command};
+    use clap::Parser;
+
+    fn parse(args: &[&str]) -> Result<Verb, clap::Error> {
+        let cli = Cli::try_parse_from(std::iter::once("pulsetrack").chain(args.iter().copied()))?;
+        match cli.command {
+            Command::Console(v) => Ok(v),
+            other => panic!("not a console verb: {other:?}"),
+        }
+    }
+
+    fn sent(args: &[&str]) -> (&'static str, Value) {
+        let verb = parse(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        request(&verb).unwrap_or_else(|| panic!("{args:?} sends no request"))
+    }
+
+    #[test]
+    fn millimetres_and_metres_send_the_same_request() {
+        let mm = sent(&["move", "--x-mm", "12", "--z-mm", "-2", "--speed-mm-s", "10"]);
+        let m = sent(&[
+            "move",
+            "--x-m",
+            "0.012",
+            "--z-m",
+            "-0.002",
+            "--speed-m-s",
+            "0.01",
+        ]);
+        assert_eq!(mm, m);
+        assert_eq!(
+            mm.1,
+            json!({"x_m": 0.012, "z_m": -0.002, "speed_m_s": 0.01}),
+            "the wire stays SI"
+        );
+        assert_eq!(
+            sent(&["jog", "--dx-mm", "0.5"]),
+            sent(&["jog", "--dx-m", "0.0005", "--dz-m", "0"])
+        );
+        assert_eq!(
+            sent(&["jog", "--dz-mm", "-1.25"]).1,
+            json!({"dx_m": 0.0, "dz_m": -0.00125})
+        );
+        // The forms may be mixed across flags.
+        assert_eq!(
+            sent(&["move", "--x-mm", "12", "--z-m", "-0.002"]).1["x_m"],
+            json!(0.012)
+        );
+        let track = |args: &[&str]| match parse(args) {
+            Ok(Verb::Track(a)) => lengths::either(a.length_mm, a.length_m),
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(
+            track(&["track", "--length-mm", "150"]),
+            track(&["track", "--length-m", "0.15"])
+        );
+        assert_eq!(track(&["track"]), None);
+    }
+
+    #[test]
+    fn both_forms_of_one_flag_are_refused() {
+        for (args, a, b) in [
+            (
+                &["move", "--x-mm", "12", "--x-m", "0.012", "--z-mm", "0"][..],
+                "--x-mm",
+                "--x-m",
+            ),
+            (
+                &["jog", "--dz-mm", "1", "--dz-m", "0.001"][..],
+                "--dz-mm",
+                "--dz-m",
+            ),
+            (
+                &[
+                    "move",
+                    "--x-mm",
+                    "1",
+                    "--z-mm",
+                    "0",
+                    "--speed-mm-s",
+                    "5",
+                    "--speed-m-s",
+                    "0.005",
+                ][..],
+                "--speed-mm-s",
+                "--speed-m-s",
+            ),
+            (
+                &["track", "--length-mm", "10", "--length-m", "0.01"][..],
+                "--length-mm",
+                "--length-m",
+            ),
+        ] {
+            let e = parse(args).expect_err("both forms");
+            assert_eq!(
+                e.kind(),
+                clap::error::ErrorKind::ArgumentConflict,
+                "{args:?}"
+            );
+            let text = e.to_string();
+            assert!(text.contains(a) && text.contains(b), "{args:?}: {text}");
+            assert_eq!(e.exit_code(), 2, "a usage error");
+        }
+        let e = parse(&["move", "--z-mm", "0"]).expect_err("x missing");
+        assert!(e.to_string().contains("--x-mm"), "{e}");
+    }
+
+    #[test]
+    fn a_bad_number_is_refused_naming_the_flag() {
+        for (args, flag) in [
+            (&["move", "--x-mm", "nan", "--z-mm", "0"][..], "--x-mm"),
+            (&["move", "--x-mm", "0", "--z-mm", "inf"][..], "--z-mm"),
+            (&["move", "--x-m", "12", "--z-mm", "0"][..], "--x-m"),
+            (
+                &["move", "--x-mm", "0", "--z-mm", "0", "--speed-mm-s", "-1"][..],
+                "--speed-mm-s",
+            ),
+            (&["jog", "--dx-mm", "1e9"][..], "--dx-mm"),
+            (&["jog", "--dz-m", "-inf"][..], "--dz-m"),
+            (&["track", "--length-mm", "0"][..], "--length-mm"),
+        ] {
+            let e = parse(args).expect_err("a bad value");
+            assert_eq!(
+                e.kind(),
+                clap::error::ErrorKind::ValueValidation,
+                "{args:?}"
+            );
+            let text = e.to_string();
+            assert!(text.contains(&format!("'{flag} ")), "{args:?}: {text}");
+        }
+    }
+
+    #[test]
+    fn the_metre_flags_are_hidden_from_help() {
+        use clap::CommandFactory;
+        let mut cmd = Cli::command();
+        let help = cmd
+            .find_subcommand_mut("move")
+            .expect("move")
+            .render_long_help()
+            .to_string();
+        assert!(
+            help.contains("--x-mm") && help.contains("--speed-mm-s"),
+            "{help}"
+        );
+        assert!(
+            !help.contains("--x-m ") && !help.contains("--speed-m-s"),
+            "{help}"
+        );
+    }
 }

@@ -4,7 +4,11 @@
 //! first placement, mark, second placement, mark, track — shows progress, prints the
 //! summary and writes plots.
 
+use crate::cli::progress::Progress;
 use crate::cli::stdout::outln;
+
+use std::cell::RefCell;
+use std::io::IsTerminal;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -37,6 +41,55 @@ pub struct Args {
     /// Where the recording, the summary and the plots go.
     #[arg(long, default_value = "pulsetrack-demo")]
     pub out: PathBuf,
+    /// Print the trial summary (as in summary.json) as one JSON document on stdout; the
+    /// narration goes to stderr.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Where the demo's narration goes: stdout, or stderr when stdout carries `--json`'s
+/// summary; while tracking, around the spinner on a terminal.
+#[derive(Debug)]
+struct Say {
+    json: bool,
+    progress: RefCell<Option<Progress>>,
+}
+
+impl Say {
+    fn line(&self, args: std::fmt::Arguments<'_>) {
+        let text = args.to_string();
+        match (self.progress.borrow().as_ref(), self.json) {
+            (Some(p), true) => p.note(&text),
+            (Some(p), false) => p.suspend(|| outln!("{text}")),
+            (None, true) => eprintln!("{text}"),
+            (None, false) => outln!("{text}"),
+        }
+    }
+
+    /// While tracking: a spinner counting located points (plain lines do without one).
+    fn tracking(&self, on: bool) {
+        // Without a terminal the located points' own lines are the progress.
+        let progress =
+            (on && std::io::stderr().is_terminal()).then(|| Progress::new("tracking", None));
+        if let Some(old) = self.progress.replace(progress) {
+            old.finish();
+        }
+    }
+
+    fn located(&self, n: usize) {
+        if let Some(p) = self.progress.borrow().as_ref() {
+            p.status(&format!("{n} points located"));
+        }
+    }
+}
+
+macro_rules! say {
+    ($say:expr) => {
+        $say.line(format_args!(""))
+    };
+    ($say:expr, $($arg:tt)*) => {
+        $say.line(format_args!($($arg)*))
+    };
 }
 
 const T: Duration = Duration::from_secs(30);
@@ -48,10 +101,7 @@ pub fn run(args: &Args) -> ExitCode {
     match run_inner(args) {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::FAILURE,
-        Err(e) => {
-            eprintln!("pulsetrack demo: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => crate::cli::failure::failed("demo", args.json, &e),
     }
 }
 
@@ -95,6 +145,10 @@ fn socket_dir() -> PathBuf {
 }
 
 fn run_inner(args: &Args) -> Result<bool, String> {
+    let say = &Say {
+        json: args.json,
+        progress: RefCell::new(None),
+    };
     let out = &args.out;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let out = out
@@ -103,24 +157,30 @@ fn run_inner(args: &Args) -> Result<bool, String> {
     crate::service::logging::init("warn");
     let loaded = demo_config(args, &out)?;
     let wall0 = Instant::now();
-    outln!(
+    say!(
+        say,
         "pulsetrack demo: starting pulsetrackd on the simulated bench ({}x real time)",
         args.time_scale
     );
     let artery = true_path(&loaded);
-    let daemon = start_daemon(loaded)?;
+    let daemon = start_daemon(say, loaded)?;
     if let Some(url) = daemon.live_url() {
         let layout = out.join("pulsetrack-layout.json");
         let layout = match std::fs::write(&layout, LAYOUT) {
             Ok(()) => layout.display().to_string(),
             Err(e) => format!("not written ({}: {e})", layout.display()),
         };
-        outln!(
+        say!(
+            say,
             "live view: {url} (Foxglove: Open connection, Foxglove WebSocket; --time-scale 1 to watch at real time)"
         );
-        outln!("layout:   {layout} (Foxglove: Layouts, Import from file)");
+        say!(
+            say,
+            "layout:   {layout} (Foxglove: Layouts, Import from file)"
+        );
     }
-    let result = drive(&daemon, &out, wall0, &artery);
+    let result = drive(say, &daemon, &out, wall0, &artery);
+    say.tracking(false);
     let stopped = daemon.shutdown();
     // The daemon has exited its lock: the demo's private folder can go.
     let _ = std::fs::remove_file(socket_dir().join("console.sock.lock"));
@@ -131,10 +191,13 @@ fn run_inner(args: &Args) -> Result<bool, String> {
 
 /// The daemon on the demo's config; if the live view's port is taken (a daemon already
 /// serving it), on any free port instead.
-fn start_daemon(loaded: LoadedConfig) -> Result<Daemon, String> {
+fn start_daemon(say: &Say, loaded: LoadedConfig) -> Result<Daemon, String> {
     match Daemon::start(loaded.clone()) {
         Err(StartError::Live(LiveError::Bind { addr, source })) => {
-            outln!("live view: {addr} is taken ({source}); using any free port");
+            say!(
+                say,
+                "live view: {addr} is taken ({source}); using any free port"
+            );
             let mut loaded = loaded;
             loaded.config.live.port = 0;
             Daemon::start(loaded).map_err(|e| e.to_string())
@@ -162,13 +225,15 @@ fn true_path(loaded: &LoadedConfig) -> Vec<(f64, f64)> {
 }
 
 fn drive(
+    say: &Say,
     daemon: &Daemon,
     out: &Path,
     wall0: Instant,
     artery: &[(f64, f64)],
 ) -> Result<bool, String> {
     let mut c = Client::connect(daemon.socket_path(), T).map_err(|e| e.to_string())?;
-    outln!(
+    say!(
+        say,
         "console:  {} (protocol {})",
         daemon.socket_path().display(),
         c.hello["protocol"]
@@ -187,7 +252,8 @@ fn drive(
         return Err("the daemon's status names no scene placements (not the sim backend?)".into());
     };
     let length_m = scene["tracked_length_m"].as_f64();
-    outln!(
+    say!(
+        say,
         "scene:    {name}: placements ({:.1}, {:.1}) and ({:.1}, {:.1}) mm, track {}",
         x1 * 1e3,
         z1 * 1e3,
@@ -200,7 +266,8 @@ fn drive(
 
     c.call("enable", json!({}), T).map_err(|e| e.to_string())?;
     for (i, (x, z)) in [(x1, z1), (x2, z2)].into_iter().enumerate() {
-        outln!(
+        say!(
+            say,
             "placement {}: moving to ({:.1}, {:.1}) mm",
             i + 1,
             x * 1e3,
@@ -217,27 +284,31 @@ fn drive(
             } else {
                 String::new()
             };
-            outln!(
+            say!(
+                say,
                 "placement {}: marking (acquiring the pulse here){again}",
                 i + 1
             );
             c.call("mark", json!({}), T).map_err(|e| e.to_string())?;
-            found = wait_mark(&mut c)?;
+            found = wait_mark(say, &mut c)?;
             if found {
                 break;
             }
-            outln!("  no pulse found");
+            say!(say, "  no pulse found");
             wait_state(&mut c, "holding")?;
         }
         if !found {
-            outln!(
+            say!(
+                say,
                 "no pulse found at placement {} in {MARK_ATTEMPTS} marks: the trial cannot be seeded",
                 i + 1
             );
             return Ok(false);
         }
     }
-    outln!("tracking...");
+    say!(say, "tracking...");
+    say.tracking(true);
+    let mut located = 0;
     c.call("track", json!({"length_m": length_m}), T)
         .map_err(|e| e.to_string())?;
     let summary = loop {
@@ -250,29 +321,42 @@ fn drive(
         match e["event"].as_str() {
             Some("trial") if e["phase"] == "ended" => break e["summary"].clone(),
             Some("fault") => {
-                outln!("{}", describe_event(&e).unwrap_or_default());
+                say!(say, "{}", describe_event(&e).unwrap_or_default());
                 return Ok(false);
             }
             Some("detection") => {
+                if e["kind"] == "located" {
+                    located += 1;
+                    say.located(located);
+                }
                 if let Some(line) = describe_event(&e) {
-                    outln!("  {line}");
+                    say!(say, "  {line}");
                 }
             }
             _ => {}
         }
     };
-    outln!();
-    print_summary(&summary);
-    outln!("wall time  {:.1} s", wall0.elapsed().as_secs_f64());
+    say.tracking(false);
+    if say.json {
+        outln!("{summary}");
+    } else {
+        say!(say);
+        print_summary(&summary);
+    }
+    say!(say, "wall time  {:.1} s", wall0.elapsed().as_secs_f64());
     let plots = out.join("plots");
     match write_plots(&summary, &plots, artery) {
-        Ok(n) => outln!("plots      {} ({n} charts, PNG and SVG)", plots.display()),
-        Err(e) => outln!("plots      not written: {e}"),
+        Ok(n) => say!(
+            say,
+            "plots      {} ({n} charts, PNG and SVG)",
+            plots.display()
+        ),
+        Err(e) => say!(say, "plots      not written: {e}"),
     }
     let summary_path = out.join("summary.json");
     crate::recording::recorder::write_json_atomically(&summary_path, &summary)
         .map_err(|e| format!("{}: {e}", summary_path.display()))?;
-    outln!("summary    {}", summary_path.display());
+    say!(say, "summary    {}", summary_path.display());
     Ok(summary["completed"] == Value::Bool(true))
 }
 
@@ -315,7 +399,7 @@ fn wait_state(c: &mut Client, want: &str) -> Result<(), String> {
 }
 
 /// Wait for a mark's result: true if the pulse was located.
-fn wait_mark(c: &mut Client) -> Result<bool, String> {
+fn wait_mark(say: &Say, c: &mut Client) -> Result<bool, String> {
     loop {
         let Some(e) = c
             .next_event(Duration::from_secs(300))
@@ -325,13 +409,13 @@ fn wait_mark(c: &mut Client) -> Result<bool, String> {
         };
         match (e["event"].as_str(), e["kind"].as_str()) {
             (Some("detection"), Some("located")) => {
-                outln!("  {}", describe_event(&e).unwrap_or_default());
+                say!(say, "  {}", describe_event(&e).unwrap_or_default());
                 return Ok(true);
             }
             (Some("detection"), Some("missed")) => return Ok(false),
             (Some("detection"), _) => {
                 if let Some(l) = describe_event(&e) {
-                    outln!("  {l}");
+                    say!(say, "  {l}");
                 }
             }
             (Some("fault"), _) => return Err(describe_event(&e).unwrap_or_default()),

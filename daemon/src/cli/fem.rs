@@ -1,7 +1,10 @@
 //! `pulsetrack fem`: run the seed FEM studies or one model file; print a summary, JSON
 //! records, and plots like the papers' figures.
 
+use crate::cli::progress::Progress;
 use crate::cli::stdout::outln;
+
+use std::time::Duration;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -54,10 +57,7 @@ pub struct Args {
 pub fn run(args: &Args) -> ExitCode {
     match execute(args) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("pulsetrack fem: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => crate::cli::failure::failed("fem", args.json, &e),
     }
 }
 
@@ -75,7 +75,9 @@ fn execute(args: &Args) -> Result<(), String> {
         if args.finite_strain && model.kinematics == Kinematics::Linear {
             model.kinematics = Kinematics::FiniteStrain { steps: 8 };
         }
+        let solving = spinner(&format!("solving {}", path.display()));
         let run = run_model(&model, args.refine).map_err(|e| e.to_string())?;
+        solving.finish();
         let runs = vec![run];
         emit(args, &runs, || print_runs(&runs))?;
         if let Some(dir) = &args.plot {
@@ -85,16 +87,22 @@ fn execute(args: &Args) -> Result<(), String> {
     }
     match args.study {
         Some(StudyName::Seed001) => {
+            let solving = spinner("solving the seed-001 study (4 models)");
             let s = seed_001(&opts).map_err(|e| e.to_string())?;
+            solving.finish();
             emit(args, &s.runs, || print_seed_001(&s, &opts))?;
             if let Some(dir) = &args.plot {
                 plot_seed_001(dir, &s)?;
+                let solving = spinner("solving the tactile image (4 models over a period)");
                 let image = seed_001_image(&opts, IMAGE_SAMPLES).map_err(|e| e.to_string())?;
+                solving.finish();
                 plot_tactile_image(dir, &image)?;
             }
         }
         Some(StudyName::Seed002) => {
+            let solving = spinner("solving the seed-002 study (base models, sweeps, tip shapes)");
             let s = seed_002(&opts).map_err(|e| e.to_string())?;
+            solving.finish();
             let mut all: Vec<ModelRun> = s.base.clone();
             for sw in &s.sweeps {
                 all.extend(sw.points.iter().map(|p| p.run.clone()));
@@ -108,6 +116,15 @@ fn execute(args: &Args) -> Result<(), String> {
         None => return Err("give --study or --model".into()),
     }
     Ok(())
+}
+
+/// A spinner with the elapsed time on a terminal, else a line now and one every 10 s:
+/// the study's solves report no steps of their own.
+fn spinner(what: &str) -> Progress {
+    let p = Progress::new("fem", None);
+    p.status(what);
+    p.heartbeat(Duration::from_secs(10));
+    p
 }
 
 fn emit(args: &Args, runs: &[ModelRun], text: impl FnOnce()) -> Result<(), String> {

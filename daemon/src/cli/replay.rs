@@ -43,10 +43,7 @@ pub struct Args {
 pub fn run(args: &Args) -> ExitCode {
     match run_inner(args) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("pulsetrack replay: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => crate::cli::failure::failed("replay", args.json, &e),
     }
 }
 

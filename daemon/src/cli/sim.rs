@@ -16,6 +16,7 @@ use control::types::ELEMENTS;
 use serde::Serialize;
 use sim::scene::{ArteryPath, Scene};
 use sim::trial::{TrialResult, TrialsSummary};
+use sim::trial_event::TrialEvent;
 
 use crate::plot::{Chart, Mark, Series, write_chart};
 
@@ -39,9 +40,14 @@ pub struct Args {
     /// Write plots (PNG and SVG) into this directory.
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// Print every tracker event of every trial on stderr, with where the sensor truly was.
+    /// Print every tracker event of every trial on stderr as JSON lines (one object each:
+    /// kind and fields, believed and true sensor positions in metres; docs/sim-json.md),
+    /// and each trial's end as a `trial` object, so that every stderr line is JSON.
     #[arg(long)]
     pub events: bool,
+    /// With --events: lines for people (millimetres) instead of JSON.
+    #[arg(long, requires = "events")]
+    pub events_text: bool,
     /// The daemon configuration giving the rig's geometry, gains and tracker constants;
     /// default: the shipped simulator configuration.
     #[arg(long)]
@@ -58,10 +64,7 @@ struct Report<'a> {
 pub fn run(args: &Args) -> ExitCode {
     match run_inner(args) {
         Ok(code) => code,
-        Err(message) => {
-            eprintln!("pulsetrack sim: {message}");
-            ExitCode::FAILURE
-        }
+        Err(message) => crate::cli::failure::failed("sim", args.json, &message),
     }
 }
 
@@ -90,6 +93,14 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
         let seed = args.seed.wrapping_add(i as u64);
         let trial = sim::runner::run_trial(&scene, &config, &args.tracker, seed)
             .map_err(|e| e.to_string())?;
+        if args.events && !args.events_text {
+            for event in &trial.log {
+                eprintln!("{}", event_line(i + 1, seed, event)?);
+            }
+            eprintln!("{}", trial_line(i + 1, &trial)?);
+            trials.push(trial);
+            continue;
+        }
         eprintln!(
             "trial {}/{} (seed {seed}): {} after {:.0} s simulated, {} points, lateral error SD {:.2} mm, {} backtracks, {:.2} s wall",
             i + 1,
@@ -101,20 +112,18 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
             trial.backtracks,
             trial.wall_s
         );
-        if args.events {
-            for line in &trial.log {
-                eprintln!("  {line}");
+        if args.events_text {
+            for event in &trial.log {
+                eprintln!("  {}", event.describe());
             }
         }
         trials.push(trial);
     }
-    if let Some(dir) = &args.plot {
+    // The results first: a chart that cannot be drawn must not lose them.
+    let plotted = args.plot.as_ref().map(|dir| {
         let path = ArteryPath::from_spec(&scene.artery.path).map_err(|e| e.to_string())?;
-        let files = plot_trials(&config, &scene, &path, &trials, dir).map_err(|e| e.to_string())?;
-        for f in files {
-            eprintln!("wrote {}", f.display());
-        }
-    }
+        plot_trials(&config, &scene, &path, &trials, dir).map_err(|e| e.to_string())
+    });
     if args.json {
         let report = Report {
             scene: &scene.name,
@@ -126,7 +135,43 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
     } else {
         print_summary(&scene, &args.tracker, &trials);
     }
+    if let Some(plotted) = plotted {
+        let plotted = plotted?;
+        for note in &plotted.notes {
+            eprintln!("plot: {note}");
+        }
+        for f in &plotted.files {
+            eprintln!("wrote {}", f.display());
+        }
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// One event as a JSON line, tagged with its trial (1-based) and the trial's seed.
+fn event_line(trial: u32, seed: u64, event: &TrialEvent) -> Result<String, String> {
+    let mut v = serde_json::to_value(event).map_err(|e| e.to_string())?;
+    if let Some(o) = v.as_object_mut() {
+        o.insert("trial".into(), trial.into());
+        o.insert("trial_seed".into(), seed.into());
+    }
+    Ok(v.to_string())
+}
+
+/// A trial's end as a JSON line (`kind: "trial"`), after its events.
+fn trial_line(trial: u32, t: &TrialResult) -> Result<String, String> {
+    Ok(serde_json::json!({
+        "kind": "trial",
+        "trial": trial,
+        "trial_seed": t.seed,
+        "end_reason": t.end_reason,
+        "completed": t.completed,
+        "points": t.located.len(),
+        "lateral_error_sd_m": t.lateral_error_m.sd,
+        "backtracks": t.backtracks,
+        "duration_s": t.duration_s,
+        "wall_s": t.wall_s,
+    })
+    .to_string())
 }
 
 fn print_summary(scene: &Scene, tracker: &str, trials: &[TrialResult]) {
@@ -175,15 +220,47 @@ fn print_summary(scene: &Scene, tracker: &str, trials: &[TrialResult]) {
     );
 }
 
+/// The charts written, and what could not be drawn and why.
+#[derive(Debug, Default)]
+struct Plotted {
+    files: Vec<PathBuf>,
+    notes: Vec<String>,
+}
+
+/// A trial's legend entry: a trial that located nothing is shown as such.
+fn trial_label(i: usize, t: &TrialResult) -> String {
+    if t.located.is_empty() {
+        format!(
+            "trial {} (seed {}): never seeded ({}), nothing located",
+            i + 1,
+            t.seed,
+            t.end_reason
+        )
+    } else {
+        format!("trial {} (seed {})", i + 1, t.seed)
+    }
+}
+
 fn plot_trials(
     config: &Config,
     scene: &Scene,
     path: &ArteryPath,
     trials: &[TrialResult],
     dir: &Path,
-) -> Result<Vec<PathBuf>, crate::plot::PlotError> {
+) -> Result<Plotted, crate::plot::PlotError> {
     let mm = |v: f64| v * 1e3;
     let mut files = Vec::new();
+    let mut notes = Vec::new();
+    for (i, t) in trials.iter().enumerate() {
+        if t.located.is_empty() {
+            notes.push(format!(
+                "trial {} (seed {}): the tracker never seeded ({}); it located no point to plot",
+                i + 1,
+                t.seed,
+                t.end_reason
+            ));
+        }
+    }
     // Top view: the true path, every trial's located points, and where the sensor truly was.
     let mut top = Chart::new(
         format!("{}: located points (top view)", scene.name),
@@ -201,7 +278,7 @@ fn plot_trials(
     top.equal_aspect = true;
     for (i, t) in trials.iter().enumerate() {
         top = top.with(Series::new(
-            format!("trial {} (seed {})", i + 1, t.seed),
+            trial_label(i, t),
             t.located.iter().map(|p| (mm(p.x_m), mm(p.z_m))).collect(),
             Mark::LinePoints,
         ));
@@ -235,7 +312,7 @@ fn plot_trials(
     );
     for (i, t) in trials.iter().enumerate() {
         err = err.with(Series::new(
-            format!("trial {}", i + 1),
+            trial_label(i, t),
             t.located
                 .iter()
                 .map(|p| (mm(p.along_path_m), mm(p.lateral_error_m)))
@@ -253,7 +330,11 @@ fn plot_trials(
             Mark::Crosses,
         ));
     }
-    files.extend(write_chart(&err, dir, "error_along_path")?);
+    if trials.iter().all(|t| t.located.is_empty()) {
+        notes.push("error_along_path not drawn: no trial located a point".into());
+    } else {
+        files.extend(write_chart(&err, dir, "error_along_path")?);
+    }
     // A 4 s trace of all ten elements at the first placement, band-passed with the seed's
     // filter as the tracker configures it (the seed's Fig. 2).
     if let Some(t) = trials.first()
@@ -305,5 +386,5 @@ fn plot_trials(
         }
         files.extend(write_chart(&trace, dir, "elements_4s")?);
     }
-    Ok(files)
+    Ok(Plotted { files, notes })
 }

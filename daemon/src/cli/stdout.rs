@@ -17,6 +17,15 @@ pub fn line(args: std::fmt::Arguments<'_>) {
     }
 }
 
+/// Write bytes as they are (a generated script or page) and flush them.
+pub fn bytes(b: &[u8]) {
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_all(b).and_then(|()| out.flush()) {
+        drop(out);
+        stop(&e);
+    }
+}
+
 fn stop(e: &std::io::Error) -> ! {
     if e.kind() == std::io::ErrorKind::BrokenPipe {
         std::process::exit(0);
