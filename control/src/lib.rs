@@ -17,5 +17,7 @@ pub mod ports;
 pub mod sensor;
 pub mod signal;
 pub mod staleness;
+#[cfg(test)]
+mod test_normals;
 pub mod tracker;
 pub mod types;

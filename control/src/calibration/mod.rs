@@ -14,8 +14,6 @@ pub mod tolerance;
 
 #[cfg(test)]
 mod kinematics_tests;
-#[cfg(test)]
-mod test_normals;
 
 pub use pivot::{PivotFit, PivotFitError, RodLine, fit_pivot};
 pub use tactile::{

@@ -1,8 +1,8 @@
 use proptest::prelude::*;
 
 use super::*;
-use crate::calibration::test_normals::Normals;
 use crate::kinematics::pivot::rod_pose;
+use crate::test_normals::Normals;
 
 /// A unit direction `tilt` from straight down toward azimuth `azimuth`.
 fn down_cone(tilt: f64, azimuth: f64) -> Vector3<f64> {

@@ -1,5 +1,5 @@
 use super::*;
-use crate::calibration::test_normals::Normals;
+use crate::test_normals::Normals;
 
 const SIGMA: f64 = 0.012;
 const LOAD: f64 = 0.5;

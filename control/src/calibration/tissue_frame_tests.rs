@@ -1,8 +1,8 @@
 use proptest::prelude::*;
 
 use super::*;
-use crate::calibration::test_normals::Normals;
 use crate::kinematics::{JointLimits, PhantomGeometry, PivotGeometry, pivot};
+use crate::test_normals::Normals;
 
 fn placement(origin: [f64; 3], yaw_rad: f64) -> TissuePlacement {
     TissuePlacement {

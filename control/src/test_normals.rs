@@ -1,6 +1,5 @@
-//! Deterministic unit normals for the calibration tests (SplitMix64 and Box-Muller), so that a
-//! noise test gives the same numbers on every run. The same generator as the detection bound's
-//! tests, which keep theirs private to `signal`.
+//! Deterministic unit normals for the crate's tests (SplitMix64 and Box-Muller), so that a
+//! noise or Monte Carlo test gives the same numbers on every run.
 
 pub struct Normals {
     state: u64,
