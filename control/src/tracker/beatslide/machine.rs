@@ -569,7 +569,6 @@ impl BeatSlide {
                 let side = SideMark {
                     raw,
                     sd_m: self.fix_sd(&fit),
-                    sensor,
                 };
                 let (raw, side_sd) = match self.seated_mark(side, t) {
                     SeatedMark::OtherSide => return,

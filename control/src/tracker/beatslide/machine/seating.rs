@@ -26,12 +26,11 @@ const SEAT_TIMEOUT_S: f64 = 20.0;
 /// uncertainty, for a rod that gives way a little more one way than the other.
 const ASYMMETRY: f64 = 0.2;
 
-/// One side's mark: the artery point as the robot believed it, its SD, and the sensor.
+/// One side's mark: the artery point as the robot believed it, and its SD.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct SideMark {
     pub raw: SurfacePoint,
     pub sd_m: f64,
-    pub sensor: SurfacePoint,
 }
 
 /// What a mark at the first placement is.
@@ -223,7 +222,6 @@ mod tests {
         SideMark {
             raw: SurfacePoint::new(0.01, z_m),
             sd_m,
-            sensor: SurfacePoint::new(0.01, 0.0),
         }
     }
 
