@@ -541,6 +541,7 @@ impl Lockstep {
                         seed: p.seed,
                         lateral_error_m: 0.0,
                         along_path_m: 0.0,
+                        sd_m: p.sd_m,
                     });
                 }
                 TrackerEvent::Backtracking { .. } => self.backtracks += 1,

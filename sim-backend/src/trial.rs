@@ -31,6 +31,10 @@ pub struct LocatedSample {
     pub lateral_error_m: f64,
     /// Arc length along the true path of the point's nearest path point, m.
     pub along_path_m: f64,
+    /// The tracker's own uncertainty of the point across the artery, one SD, m (absent:
+    /// the tracker gives none). `lateral_error_m / sd_m` says whether it is honest.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sd_m: Option<f64>,
 }
 
 /// Mean and SD of the signed lateral offsets, and the 95th percentile and the largest of

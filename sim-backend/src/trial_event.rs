@@ -39,6 +39,9 @@ pub enum EventKind {
         amplitude_n: f64,
         /// A surgeon's manual placement.
         seed: bool,
+        /// The point's uncertainty across the artery, one SD, m (absent: not estimated).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        sd_m: Option<f64>,
     },
     /// An acquisition found no pulse.
     Missed { event_t_s: f64, at: SurfacePoint },
@@ -71,6 +74,7 @@ impl From<TrackerEvent> for EventKind {
                 element: p.element,
                 amplitude_n: p.amplitude_n,
                 seed: p.seed,
+                sd_m: p.sd_m,
             },
             TrackerEvent::Missed { t_s, at } => EventKind::Missed { event_t_s: t_s, at },
             TrackerEvent::Backtracking { t_s, toward } => EventKind::Backtracking {
@@ -171,6 +175,7 @@ mod tests {
             element: 5.5,
             amplitude_n: 0.03,
             seed: true,
+            sd_m: Some(2e-4),
         })));
         let v = serde_json::to_value(&located).expect("serializes");
         assert_eq!(v["kind"], "located");
@@ -179,6 +184,7 @@ mod tests {
         assert_eq!(v["believed_sensor"]["x_m"], 0.01);
         assert_eq!(v["true_sensor"]["z_m"], -0.0021);
         assert_eq!(v["point"]["x_m"], 0.011);
+        assert_eq!(v["sd_m"], 2e-4);
         assert_eq!(v["seed"], true);
         let finished = at(EventKind::from(TrackerEvent::Finished {
             t_s: 20.0,

@@ -208,3 +208,24 @@ fn robust_occlusion_stops_lost_at_rest_near_the_artery() {
     let d = (end.x_m - last.true_x_m).hypot(end.z_m - last.true_z_m);
     assert!(d < 0.04, "ended {d} m from the last located point; {why}");
 }
+
+/// Each point's reported uncertainty covers its true error: the tracker never claims to
+/// know a point better than it does (docs/tracker-beatslide.md, "How sure a point is").
+#[test]
+fn located_points_carry_an_uncertainty_that_covers_their_error() {
+    let (_, t) = run("seed-arc-145.ron");
+    let z: Vec<f64> = t
+        .located
+        .iter()
+        .map(|p| {
+            let sd = p.sd_m.expect("beatslide reports an SD with every point");
+            assert!(sd.is_finite() && sd > 0.0 && sd < 0.01, "{p:?}");
+            p.lateral_error_m / sd
+        })
+        .collect();
+    assert!(z.len() >= 10, "{}", summary(&t));
+    let rms = (z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64).sqrt();
+    assert!(z.iter().all(|v| v.abs() < 3.0), "{z:?}");
+    // Conservative (the fix floor is a model-error allowance) but not uselessly so.
+    assert!(rms > 0.1 && rms < 1.2, "RMS error / SD {rms:.2}: {z:?}");
+}

@@ -55,6 +55,19 @@ pub struct LocatedPoint {
     pub amplitude_n: f64,
     /// True for the surgeon's manual placements.
     pub seed: bool,
+    /// The point's uncertainty across the artery (one SD, m): the fit's own, the tissue's
+    /// unexplained motion and the sensor's uncertain lag behind the belief. `None` from a
+    /// tracker that does not estimate it (`seed2002`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sd_m: Option<f64>,
+}
+
+/// A point of the course the tracker expects ahead of its last fix.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PredictedPoint {
+    pub point: SurfacePoint,
+    /// Lateral SD of the prediction, m (`None`: the tracker has no model of it).
+    pub sd_m: Option<f64>,
 }
 
 /// Why tracking ended.
@@ -196,6 +209,13 @@ pub trait Tracker: Send {
     /// the rest ignore it.
     fn approach(&mut self, believed: crate::frames::SurfacePoint) {
         let _ = believed;
+    }
+
+    /// The course the tracker expects ahead, from its last fix on, into `out` (cleared
+    /// first; empty when it has no model, e.g. before tracking). For display: nothing in the
+    /// control path reads it, so it may allocate.
+    fn path_ahead(&self, out: &mut Vec<PredictedPoint>) {
+        out.clear();
     }
 }
 

@@ -55,6 +55,10 @@ pub struct Located {
     pub element: f64,
     pub amplitude_n: f64,
     pub seed: bool,
+    /// The point's uncertainty across the artery (one SD), m; absent from trackers that
+    /// give none and from recordings made before it was recorded.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sd_m: Option<f64>,
 }
 
 impl From<&LocatedPoint> for Located {
@@ -68,12 +72,14 @@ impl From<&LocatedPoint> for Located {
             element: p.element,
             amplitude_n: p.amplitude_n,
             seed: p.seed,
+            sd_m: p.sd_m,
         }
     }
 }
 
 impl Located {
-    /// Equal to the last bit in every number (NaN equal to the same NaN).
+    /// Equal to the last bit in every number (NaN equal to the same NaN); the SD only
+    /// where both have one.
     pub fn same_bits(&self, o: &Located) -> bool {
         let b = |a: f64, b: f64| a.to_bits() == b.to_bits();
         b(self.t_s, o.t_s)
@@ -84,6 +90,11 @@ impl Located {
             && b(self.element, o.element)
             && b(self.amplitude_n, o.amplitude_n)
             && self.seed == o.seed
+            // Recordings made before points carried an SD have none to compare.
+            && match (self.sd_m, o.sd_m) {
+                (Some(x), Some(y)) => b(x, y),
+                _ => true,
+            }
     }
 
     fn from_recorded(v: &Value) -> Option<Located> {
@@ -97,6 +108,7 @@ impl Located {
             element: f("element")?,
             amplitude_n: f("amplitude_n")?,
             seed: v.get("seed").and_then(Value::as_bool)?,
+            sd_m: f("sd_m"),
         })
     }
 }
@@ -262,7 +274,7 @@ fn event_json(e: &TrackerEvent) -> Value {
     match e {
         TrackerEvent::Located(p) => json!({"kind": "located", "t_s": p.t_s,
             "x_m": p.point.x_m, "z_m": p.point.z_m, "element": p.element,
-            "amplitude_n": p.amplitude_n, "seed": p.seed}),
+            "amplitude_n": p.amplitude_n, "seed": p.seed, "sd_m": p.sd_m}),
         TrackerEvent::Missed { t_s, at } => {
             json!({"kind": "missed", "t_s": t_s, "x_m": at.x_m, "z_m": at.z_m})
         }
@@ -315,6 +327,7 @@ mod tests {
             element: 4.5,
             amplitude_n: 0.05,
             seed: false,
+            sd_m: Some(3e-4),
         }
     }
 
@@ -327,6 +340,10 @@ mod tests {
         assert_eq!(first_difference(&a, &a[..1]), Some(1));
         assert_eq!(first_difference(&[], &a), Some(0));
         assert!(p(f64::NAN).same_bits(&p(f64::NAN)));
+        let sd = |sd_m| Located { sd_m, ..p(0.01) };
+        assert!(!sd(Some(3e-4)).same_bits(&sd(Some(3.0001e-4))));
+        // A recording from before points carried an SD still compares on the rest.
+        assert!(sd(None).same_bits(&sd(Some(3e-4))));
     }
 
     #[test]

@@ -242,6 +242,7 @@ fn located(t_s: f64, at: SurfacePoint, seed: bool) -> TrackerEvent {
         element: 4.5,
         amplitude_n: 0.05,
         seed,
+        sd_m: None,
     })
 }
 

@@ -35,8 +35,8 @@ use crate::signal::noise_level::NoiseLevel;
 use crate::signal::pulse_search::{PulseFound, PulseSearch, PulseSearchSettings, SearchMiss};
 use crate::tracker::event_queue::EventQueue;
 use crate::tracker::{
-    EndReason, LocatedPoint, MotionCommand, TrackLimit, Tracker, TrackerError, TrackerEvent,
-    TrackerInput, TrackerOutput, TrackerPhase,
+    EndReason, LocatedPoint, MotionCommand, PredictedPoint, TrackLimit, Tracker, TrackerError,
+    TrackerEvent, TrackerInput, TrackerOutput, TrackerPhase,
 };
 
 /// The most events one analysis can queue (a period, a point or a miss, a backtrack or
@@ -483,6 +483,7 @@ impl BeatSlide {
         sensor: SurfacePoint,
         fit: &KernelFit,
         seed: bool,
+        sd_m: f64,
     ) -> LocatedPoint {
         LocatedPoint {
             t_s,
@@ -491,7 +492,23 @@ impl BeatSlide {
             element: fit.element,
             amplitude_n: self.amplitude_n(fit),
             seed,
+            sd_m: Some(sd_m),
         }
+    }
+
+    /// A reported point's SD across the artery: its observation's (`fix_sd_m`) and that of
+    /// the lag it was corrected by along `lag_dir`. With a path model, only the lag's part
+    /// across the path's heading counts (sliding along the artery, an error in the lag moves
+    /// the point along it); before one (the seeds), all of it, and the prior's SD.
+    fn point_sd(&self, fix_sd_m: f64, lag_dir: [f64; 2]) -> f64 {
+        let lag_across = match self.filter.as_ref() {
+            Some(f) => {
+                let (sin, cos) = f.heading_rad().sin_cos();
+                f.lag_sd_m() * (-lag_dir[0] * sin + lag_dir[1] * cos).abs()
+            }
+            None => self.params.lag_prior_sd_m * lag_dir[0].hypot(lag_dir[1]),
+        };
+        fix_sd_m.hypot(lag_across)
     }
 
     /// The lateral SD of a fix for the path filter. Beyond the outer elements' centres the
@@ -594,7 +611,8 @@ impl BeatSlide {
                 let lag = self.params.lag_prior_m;
                 let point =
                     SurfacePoint::new(raw.x_m - lag * lag_dir[0], raw.z_m - lag * lag_dir[1]);
-                let located = self.located(0.5 * (since + t), point, sensor, &fit, true);
+                let sd_m = self.point_sd(observation.sd_m, lag_dir);
+                let located = self.located(0.5 * (since + t), point, sensor, &fit, true, sd_m);
                 if self.seeds.len() == MAX_SEEDS {
                     self.seeds.remove(0);
                     self.seed_points.remove(0);
@@ -776,9 +794,32 @@ fn check_params(p: &BeatSlideParams, fs: f64) -> Result<(), InvalidParams> {
     Ok(())
 }
 
+/// Points of the path ahead drawn for display, from the last fix to `max_blind_m`.
+const PATH_AHEAD_POINTS: usize = 16;
+
 impl Tracker for BeatSlide {
     fn name(&self) -> &'static str {
         Self::NAME
+    }
+
+    /// The path filter's course from the last fix to as far as the tracker would go blind,
+    /// with its lateral SD (growing with distance); empty before tracking and after it.
+    fn path_ahead(&self, out: &mut Vec<PredictedPoint>) {
+        out.clear();
+        let Some(filter) = self.filter.as_ref() else {
+            return;
+        };
+        if self.phase() != TrackerPhase::Tracking {
+            return;
+        }
+        let last = (PATH_AHEAD_POINTS - 1) as f64;
+        out.extend((0..PATH_AHEAD_POINTS).filter_map(|i| {
+            let p = filter.predict(self.params.max_blind_m * i as f64 / last);
+            p.point.is_finite().then_some(PredictedPoint {
+                point: p.point,
+                sd_m: Some(p.sd_m),
+            })
+        }));
     }
 
     fn phase(&self) -> TrackerPhase {
@@ -1013,6 +1054,40 @@ mod tests {
             noise_sd_n: 0.01,
             aligned: Waveform::zeros(),
         }
+    }
+
+    #[test]
+    fn the_path_ahead_is_the_filters_course_with_its_growing_sd_and_only_while_tracking() {
+        let mut t = seeded();
+        let mut ahead = vec![PredictedPoint {
+            point: SurfacePoint::new(1.0, 1.0),
+            sd_m: None,
+        }];
+        t.path_ahead(&mut ahead);
+        assert!(
+            ahead.is_empty(),
+            "seeding: no path ahead, and `out` is cleared"
+        );
+        t.state = t.sliding_from(SurfacePoint::new(0.005, 0.0)).unwrap();
+        t.path_ahead(&mut ahead);
+        assert_eq!(ahead.len(), PATH_AHEAD_POINTS);
+        let filter = t.filter.unwrap();
+        let (first, last) = (ahead[0], ahead[PATH_AHEAD_POINTS - 1]);
+        assert!(
+            first.point.distance_to(&filter.origin()) < 1e-12,
+            "{first:?}"
+        );
+        // The seeds lie along +x: the course runs on along +x as far as the tracker goes blind.
+        assert!((last.point.x_m - filter.origin().x_m - t.params.max_blind_m).abs() < 1e-4);
+        assert!(last.point.z_m.abs() < 1e-4, "{last:?}");
+        let sds: Vec<f64> = ahead.iter().map(|p| p.sd_m.unwrap()).collect();
+        assert!(sds.windows(2).all(|w| w[1] > w[0]), "{sds:?}");
+        assert!(
+            (sds[PATH_AHEAD_POINTS - 1] - filter.predict(t.params.max_blind_m).sd_m).abs() < 1e-15
+        );
+        t.state = State::Finished(EndReason::Stopped);
+        t.path_ahead(&mut ahead);
+        assert!(ahead.is_empty());
     }
 
     #[test]

@@ -20,8 +20,8 @@ use crate::signal::{
 use crate::tracker::event_queue::EventQueue;
 use crate::tracker::line_fit::PathLine;
 use crate::tracker::{
-    EndReason, LocatedPoint, MotionCommand, TrackLimit, Tracker, TrackerError, TrackerEvent,
-    TrackerInput, TrackerOutput, TrackerPhase,
+    EndReason, LocatedPoint, MotionCommand, PredictedPoint, TrackLimit, Tracker, TrackerError,
+    TrackerEvent, TrackerInput, TrackerOutput, TrackerPhase,
 };
 
 /// The most events one acquisition can queue (a new period, a located point, an end).
@@ -310,6 +310,7 @@ impl Seed2002 {
             element,
             amplitude_n: finding.localization.amplitude_n,
             seed,
+            sd_m: None,
         }
     }
 
@@ -405,6 +406,22 @@ impl Seed2002 {
 impl Tracker for Seed2002 {
     fn name(&self) -> &'static str {
         Self::NAME
+    }
+
+    /// The 2002 method's whole model of the path: the straight line through the recent
+    /// points, one step on from the last point found. It has no estimate of its error.
+    fn path_ahead(&self, out: &mut Vec<PredictedPoint>) {
+        out.clear();
+        if self.phase() != TrackerPhase::Tracking {
+            return;
+        }
+        let (Some(line), Some(from)) = (self.line, self.last_found) else {
+            return;
+        };
+        let ahead = line.beyond(&from, self.step_m);
+        if from.is_finite() && ahead.is_finite() {
+            out.extend([from, ahead].map(|point| PredictedPoint { point, sd_m: None }));
+        }
     }
 
     fn phase(&self) -> TrackerPhase {

@@ -123,9 +123,9 @@ impl BeatSlide {
                         self.reseed(anchor, observation)?
                     }
                 };
-                Ok((found, fit, sensor, point))
+                Ok((found, fit, sensor, point, observation))
             });
-        let (found, fit, sensor, point) = match found {
+        let (found, fit, sensor, point, observation) = match found {
             Ok(f) => f,
             Err(why) => {
                 self.last_miss = Some(why);
@@ -150,7 +150,8 @@ impl BeatSlide {
             }
         };
         self.learn_pulse(&found, &fit, t - since, t);
-        let located = self.located(0.5 * (since + t), point, sensor, &fit, false);
+        let sd_m = self.point_sd(observation.sd_m, observation.lag_dir);
+        let located = self.located(0.5 * (since + t), point, sensor, &fit, false, sd_m);
         self.record(point);
         if !self.smeared(t - since) {
             self.emit(TrackerEvent::Located(located));

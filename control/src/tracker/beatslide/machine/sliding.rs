@@ -269,7 +269,9 @@ impl BeatSlide {
         sensor: SurfacePoint,
         t_s: f64,
     ) {
-        let located = self.located(fix.t_mid_s, point, fix.sensor, &fix.kernel, false);
+        let fix_sd = self.fix_sd(&fix.kernel).hypot(self.tissue.sd_m());
+        let sd_m = self.point_sd(fix_sd, fix.lag_dir);
+        let located = self.located(fix.t_mid_s, point, fix.sensor, &fix.kernel, false, sd_m);
         self.record(point);
         if !self.smeared(self.window_len_s()) {
             self.emit(TrackerEvent::Located(located));
