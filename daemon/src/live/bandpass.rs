@@ -15,6 +15,7 @@ use std::collections::VecDeque;
 use control::signal::{BandPass, BandPassSpec, FilterDesignError};
 use control::types::ELEMENTS;
 
+use crate::live::beats::{beat_times, spacing_s};
 use crate::live::messages::{BandPassedFrame, PulseSample};
 
 #[derive(Debug, Clone, Copy)]
@@ -30,8 +31,8 @@ pub struct LiveBandPass {
     taps: Vec<f64>,
     delay_s: f64,
     raw: VecDeque<Raw>,
-    /// Band-passed samples of the last `window` frames, for the swing.
-    filtered: VecDeque<[f64; ELEMENTS]>,
+    /// Band-passed samples of the last `window` frames (time s, force N), for the swing.
+    filtered: VecDeque<(f64, [f64; ELEMENTS])>,
     window: usize,
     window_s: f64,
 }
@@ -93,7 +94,7 @@ impl LiveBandPass {
             }
         }
         let centre = self.raw.get(self.taps.len() / 2)?;
-        self.filtered.push_back(out);
+        self.filtered.push_back((centre.t_s, out));
         if self.filtered.len() > self.window {
             self.filtered.pop_front();
         }
@@ -112,7 +113,7 @@ impl LiveBandPass {
         }
         let mut lo = [f64::INFINITY; ELEMENTS];
         let mut hi = [f64::NEG_INFINITY; ELEMENTS];
-        for s in &self.filtered {
+        for (_, s) in &self.filtered {
             for e in 0..ELEMENTS {
                 lo[e] = lo[e].min(s[e]);
                 hi[e] = hi[e].max(s[e]);
@@ -125,12 +126,18 @@ impl LiveBandPass {
             .max_by(|a, b| a.1.total_cmp(b.1))
             .map(|(i, _)| i)
             .unwrap_or(0);
+        let trace: Vec<(f64, f64)> = self
+            .filtered
+            .iter()
+            .map(|(t, f)| (*t, f[strongest_element]))
+            .collect();
         Some(PulseSample {
             t_s,
             period_s,
             amplitude_n,
             window_s: self.window_s,
             strongest_element,
+            beat_times_s: beat_times(&trace, spacing_s(period_s)),
         })
     }
 }
@@ -193,6 +200,11 @@ mod tests {
         assert_eq!(p.strongest_element, 3);
         assert!((p.amplitude_n[3] - 0.2).abs() < 0.02, "{:?}", p.amplitude_n);
         assert!(p.amplitude_n[0] < 1e-9);
+        // The 1 Hz sine peaks at t = k + 0.25; the 2 s window ends at frame 999's centre, so its peak at 8.25 s is confirmed.
+        assert!(!p.beat_times_s.is_empty(), "{p:?}");
+        for t in &p.beat_times_s {
+            assert!(((t - 0.25) - (t - 0.25).round()).abs() < 0.011, "{p:?}");
+        }
     }
 
     #[test]

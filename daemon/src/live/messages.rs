@@ -31,6 +31,10 @@ pub struct PulseSample {
     pub window_s: f64,
     /// The element with the largest swing.
     pub strongest_element: usize,
+    /// The beats in the window, daemon clock, s: the strongest element's band-passed peaks
+    /// (docs/foxglove.md; on a trace with no pulse, the noise's own).
+    #[serde(default)]
+    pub beat_times_s: Vec<f64>,
 }
 
 /// The 1 kHz loop's timing and the live view's losses (`/loop`), four times a second.

@@ -13,8 +13,9 @@ use crate::live::publisher::{Publisher, channels};
 use crate::live::tap::LiveTap;
 use crate::recording::trial_file::Epoch;
 
-/// How the pulse swing is measured: over this many seconds of band-passed frames.
-const SWING_WINDOW_S: f64 = 2.0;
+/// How the pulse swing and the beats are measured: over this many seconds of band-passed
+/// frames (three beats of a heart at 60 per minute, two of them confirmed peaks).
+const SWING_WINDOW_S: f64 = 3.0;
 
 /// How long clients get to close when the server stops.
 const STOP_WAIT: std::time::Duration = std::time::Duration::from_secs(1);
