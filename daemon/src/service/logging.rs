@@ -1,8 +1,14 @@
 //! Logs through tracing: to the journal when systemd connected our stderr to it (it sets
-//! JOURNAL_STREAM), to stderr otherwise. `RUST_LOG` filters as usual; the default is info.
+//! JOURNAL_STREAM), to stderr otherwise. `RUST_LOG` filters those as usual; the default is
+//! info. Lines at info and above also go to the trial's `/log` ([`super::log_forward`]),
+//! whatever `RUST_LOG` says (filtered
+//! per layer, so debug call sites stay disabled unless `RUST_LOG` asks for them).
 
 use tracing_subscriber::EnvFilter;
+use tracing_subscriber::filter::LevelFilter;
 use tracing_subscriber::prelude::*;
+
+use super::log_forward::ForwardLayer;
 
 /// Where the log went.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -20,14 +26,18 @@ pub fn init(default_level: &str) -> LogSink {
         && let Ok(layer) = tracing_journald::layer()
     {
         let _ = tracing_subscriber::registry()
-            .with(filter())
-            .with(layer)
+            .with(layer.with_filter(filter()))
+            .with(ForwardLayer.with_filter(LevelFilter::INFO))
             .try_init();
         return LogSink::Journald;
     }
     let _ = tracing_subscriber::registry()
-        .with(filter())
-        .with(tracing_subscriber::fmt::layer().with_writer(std::io::stderr))
+        .with(
+            tracing_subscriber::fmt::layer()
+                .with_writer(std::io::stderr)
+                .with_filter(filter()),
+        )
+        .with(ForwardLayer.with_filter(LevelFilter::INFO))
         .try_init();
     LogSink::Stderr
 }

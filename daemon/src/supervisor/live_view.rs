@@ -130,7 +130,8 @@ impl Supervisor {
     /// The live view in `status`: where to connect and what it dropped.
     pub(super) fn live_status(&self) -> Value {
         match self.links.live.as_ref() {
-            Some(l) => json!({"enabled": true, "url": l.url(), "dropped": l.dropped()}),
+            Some(l) => json!({"enabled": true, "url": l.url(), "dropped": l.dropped(),
+                "log_lines_dropped": crate::service::log_forward::dropped()}),
             None => json!({"enabled": false}),
         }
     }

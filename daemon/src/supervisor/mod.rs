@@ -44,9 +44,14 @@ use crate::rt::link::{
     ControlCommand, ControlEvent, ControlStatus, LoopSample, Refusal, StampedFrame,
 };
 use crate::rt::period_stats::PeriodSummary;
+use crate::service::log_forward::{self, ALREADY_ON_LOG, ForwardedLine};
 use crate::slot::Slot;
 use state::{Context, OpState};
 use trial::{Trial, TrialEnd};
+
+/// Daemon log lines waiting for `/log`, and how many one tick moves there.
+const LOG_LINES_QUEUE: usize = 256;
+const LOG_LINES_PER_TICK: usize = 64;
 
 /// Requests from the console and the daemon itself.
 pub enum SupervisorInput {
@@ -193,6 +198,8 @@ pub struct Supervisor {
     live_beats: u64,
     /// The live view's drop count as last logged.
     live_dropped_logged: u64,
+    /// The daemon's own log lines, for `/log` (`service::log_forward`).
+    log_lines: crossbeam_channel::Receiver<ForwardedLine>,
 }
 
 impl std::fmt::Debug for Supervisor {
@@ -257,6 +264,7 @@ impl Supervisor {
             last_state_beat: Instant::now(),
             live_beats: 0,
             live_dropped_logged: 0,
+            log_lines: log_forward::connect(LOG_LINES_QUEUE),
         }
     }
 
@@ -398,6 +406,23 @@ impl Supervisor {
         });
     }
 
+    /// The daemon's own log lines since the last tick, onto `/log` at the supervisor's
+    /// clock (a bounded number per tick: a burst waits for the next, or is dropped and
+    /// counted by the queue).
+    fn forward_log_lines(&self) {
+        let t = self.now_s();
+        for l in self.log_lines.try_iter().take(LOG_LINES_PER_TICK) {
+            self.emit(Topic::Log, t, |epoch| fox::Log {
+                timestamp: epoch.time(t),
+                level: l.level,
+                message: l.message.clone(),
+                name: l.target.clone(),
+                file: l.file.clone(),
+                line: l.line,
+            });
+        }
+    }
+
     /// Record a call into the trial's tracker (other than a frame), in order with the
     /// frames, for offline replay.
     fn record_tracker_call(&self, call: TrackerCall) {
@@ -506,7 +531,7 @@ impl Supervisor {
             "from": from.as_str(),
             "seeds": self.trial.as_ref().map(|t| t.seeds()).unwrap_or(0),
         });
-        tracing::info!("state {} -> {}", from.as_str(), s.as_str());
+        tracing::info!(target: ALREADY_ON_LOG, "state {} -> {}", from.as_str(), s.as_str());
         self.record(Topic::Events, t, &v);
         let lvl = if s == OpState::Fault {
             level::ERROR
@@ -613,7 +638,7 @@ impl Supervisor {
             t_s: t,
             json: ev.to_string().into_bytes(),
         });
-        tracing::info!("trial {} ended: {}", trial.id, end.as_str());
+        tracing::info!(target: ALREADY_ON_LOG, "trial {} ended: {}", trial.id, end.as_str());
         // The trial is closed: these reach the live view only (the file gets its own below).
         self.live_json(LiveTopic::Recorded(Topic::Events), t, &ev);
         self.log_line(
@@ -755,7 +780,7 @@ impl Supervisor {
         if let Some(d) = &self.fault_detail {
             reason = format!("{reason}: {d}");
         }
-        tracing::error!("FAULT latched: {reason}");
+        tracing::error!(target: ALREADY_ON_LOG, "FAULT latched: {reason}");
         self.log_line(f.t_s, level::ERROR, format!("FAULT latched: {reason}"));
         let dump = self.dump_flight_recorder(&f);
         self.end_trial(TrialEnd::Fault);
@@ -988,6 +1013,7 @@ impl Supervisor {
 
     fn on_tick(&mut self) {
         self.links.heartbeat.fetch_add(1, Ordering::Relaxed);
+        self.forward_log_lines();
         let now = Instant::now();
         let timeout = self.s.command_timeout;
         let mut expired = Vec::new();
