@@ -10,7 +10,10 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use e2e::{Setup, T, call, located_until_trial_end, seed, start, wait_state};
+use e2e::{
+    Setup, T, call, located_until_trial_end, seed, start, start_with_config, wait_state,
+    write_config,
+};
 use pulsetrack_tests::foxglove_ws::{FoxgloveClient, LIVE_TOPICS as ALL_TOPICS, Received};
 use serde_json::{Value, json};
 
@@ -269,6 +272,163 @@ fn a_demo_trial_shows_its_located_points_live_and_replays_in_the_same_view() {
         .map(|m| m.log_time_ns)
         .min();
     assert!(first_replayed >= first_recorded);
+}
+
+/// The newest entity called `id` in the `/artery` messages of `msgs`.
+fn newest_entity(msgs: &[Received], id: &str) -> Option<Value> {
+    on(msgs, "/artery")
+        .filter_map(|u| {
+            u["entities"]
+                .as_array()?
+                .iter()
+                .find(|e| e["id"] == id)
+                .cloned()
+        })
+        .last()
+}
+
+#[test]
+fn a_beatslide_trial_shows_how_sure_each_point_is_the_course_ahead_the_beats_and_the_daemons_log() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let config = write_config(dir.path(), &Setup::default());
+    let text = std::fs::read_to_string(&config).expect("config");
+    let beatslide = text.replace("name: \"seed2002\",", "name: \"beatslide\",");
+    assert_ne!(
+        text, beatslide,
+        "the shipped sim config no longer names seed2002"
+    );
+    std::fs::write(&config, beatslide).expect("write config");
+    let (daemon, mut c) = start_with_config(dir.path(), config);
+    let url = live_url(&mut c);
+    let mut fox = FoxgloveClient::connect(&url, T).expect("connect");
+    let topics = ["/artery", "/log", "/pulse"];
+    fox.wait_for_channels(&topics, T).expect("advertised");
+    fox.subscribe(&topics).expect("subscribe");
+    let first = fox.next(T).expect("read").expect("a message within 30 s");
+    assert!(topics.contains(&first.topic.as_str()), "{}", first.topic);
+    seed(&mut c);
+    call(&mut c, "track", json!({"length_m": 0.03}));
+    // Keep reading while it tracks: the course ahead is cleared once tracking ends.
+    let mut msgs = vec![first];
+    let mut ended = None;
+    let deadline = std::time::Instant::now() + Duration::from_secs(240);
+    while ended.is_none() && std::time::Instant::now() < deadline {
+        msgs.extend(
+            fox.collect_for(Duration::from_millis(500))
+                .expect("receive"),
+        );
+        let st = call(&mut c, "status", json!({}));
+        if st["state"] == "done" || st["state"] == "holding" {
+            ended = Some(st);
+        }
+    }
+    assert!(ended.is_some(), "the trial did not end");
+    msgs.extend(fox.collect_for(Duration::from_secs(2)).expect("receive"));
+    drop(fox);
+    let trials = std::fs::read_dir(dir.path().join("trials"))
+        .expect("trials")
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .find(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .expect("a trial recording");
+    daemon.stop();
+
+    // Every located point carries its SD, and is drawn on a disc of radius two SDs.
+    let back = daemon::recording::recover::read(&trials).expect("read the recording");
+    let sds: Vec<f64> = back
+        .on(daemon::recording::topics::Topic::Events)
+        .filter_map(|m| serde_json::from_slice::<Value>(&m.data).ok())
+        .filter(|e| e["kind"] == "located")
+        .map(|e| {
+            e["point"]["sd_m"]
+                .as_f64()
+                .expect("beatslide records an SD")
+        })
+        .collect();
+    assert!(sds.len() >= 3, "{sds:?}");
+    assert!(sds.iter().all(|sd| *sd > 0.0 && *sd < 0.01), "{sds:?}");
+    let located = newest_entity(&msgs, "located").expect("located points");
+    let discs: Vec<f64> = located["spheres"]
+        .as_array()
+        .expect("spheres")
+        .iter()
+        .filter(|s| s["color"]["a"].as_f64() < Some(1.0))
+        .map(|s| s["size"]["x"].as_f64().unwrap_or(f64::NAN))
+        .collect();
+    assert_eq!(discs.len(), sds.len(), "{located}");
+    for (d, sd) in discs.iter().zip(&sds) {
+        assert!((d - 4.0 * sd).abs() < 1e-12, "disc {d} for SD {sd}");
+    }
+
+    // While tracking, the course ahead: its centre line and the band of two SDs either side.
+    let ahead = on(&msgs, "/artery")
+        .filter_map(|u| {
+            u["entities"]
+                .as_array()?
+                .iter()
+                .find(|e| e["id"] == "ahead" && e["lines"].as_array().is_some_and(|l| l.len() == 3))
+                .cloned()
+        })
+        .last()
+        .expect("a course ahead with its band while tracking");
+    let point = |l: &Value, i: usize| {
+        let p = &l["points"][i];
+        (
+            p["x"].as_f64().unwrap_or(f64::NAN),
+            p["z"].as_f64().unwrap_or(f64::NAN),
+        )
+    };
+    let n = ahead["lines"][0]["points"].as_array().map_or(0, Vec::len);
+    assert!(n >= 3, "{ahead}");
+    let centre = point(&ahead["lines"][0], 0);
+    let (left, right) = (point(&ahead["lines"][1], 0), point(&ahead["lines"][2], 0));
+    let half_width = |e: (f64, f64)| (e.0 - centre.0).hypot(e.1 - centre.1);
+    assert!(half_width(left) > 0.0 && (half_width(left) - half_width(right)).abs() < 1e-9);
+    // The far end is less certain than the near one.
+    let far = |k: usize| {
+        let (c, e) = (
+            point(&ahead["lines"][0], n - 1),
+            point(&ahead["lines"][k], n - 1),
+        );
+        (e.0 - c.0).hypot(e.1 - c.1)
+    };
+    assert!(far(1) > half_width(left), "{ahead}");
+
+    // Beats on /pulse, about a period apart once the tracker has reported one.
+    let mut spaced = 0;
+    for p in on(&msgs, "/pulse") {
+        let (Some(period), Some(beats)) = (p["period_s"].as_f64(), p["beat_times_s"].as_array())
+        else {
+            continue;
+        };
+        let beats: Vec<f64> = beats.iter().filter_map(Value::as_f64).collect();
+        for pair in beats.windows(2) {
+            let ratio = (pair[1] - pair[0]) / period;
+            assert!(
+                (0.6..1.6).contains(&ratio),
+                "beats {beats:?}, period {period}"
+            );
+            spaced += 1;
+        }
+    }
+    assert!(spaced > 0, "no two beats in any /pulse message");
+
+    // The daemon's own log lines reach /log with where they were logged, and the lines the
+    // supervisor writes there itself come once.
+    let logs: Vec<Value> = on(&msgs, "/log").collect();
+    assert!(
+        logs.iter().any(|l| l["message"]
+            .as_str()
+            .is_some_and(|m| m.starts_with("recording trial to"))
+            && l["name"].as_str().is_some_and(|n| n.contains("recorder"))
+            && l["file"].as_str().is_some_and(|f| f.ends_with(".rs"))),
+        "{logs:?}"
+    );
+    let state_lines = logs
+        .iter()
+        .filter(|l| l["message"] == "state holding -> seeding")
+        .count();
+    assert_eq!(state_lines, 2, "one per mark: {logs:?}");
 }
 
 #[test]
