@@ -56,8 +56,8 @@ impl Detrend {
             self.last = None;
         }
         if let Some(last) = self.last {
-            for e in 0..ELEMENTS {
-                self.diff_sq[e] += (y[e] - last[e]).powi(2);
+            for ((d, a), b) in self.diff_sq.iter_mut().zip(y).zip(&last) {
+                *d += (a - b).powi(2);
             }
             self.diffs += 1;
         }
@@ -65,16 +65,16 @@ impl Detrend {
         let len = self.ring.len();
         if self.filled == len {
             let old = self.ring[self.head];
-            for e in 0..ELEMENTS {
-                self.sum[e] -= old[e];
+            for (s, o) in self.sum.iter_mut().zip(&old) {
+                *s -= o;
             }
         } else {
             self.filled += 1;
         }
         self.ring[self.head] = *y;
         self.times[self.head] = t_s;
-        for e in 0..ELEMENTS {
-            self.sum[e] += y[e];
+        for (s, v) in self.sum.iter_mut().zip(y) {
+            *s += v;
         }
         self.head = (self.head + 1) % len;
         self.since_resum += 1;
@@ -84,8 +84,8 @@ impl Detrend {
             self.sum = [0.0; ELEMENTS];
             for k in 0..self.filled {
                 let r = self.ring[(self.head + len - 1 - k) % len];
-                for e in 0..ELEMENTS {
-                    self.sum[e] += r[e];
+                for (s, v) in self.sum.iter_mut().zip(&r) {
+                    *s += v;
                 }
             }
         }

@@ -71,7 +71,7 @@ pub(super) fn place(
             (0, f64::NEG_INFINITY),
             |a, (i, &v)| if v > a.1 { (i, v) } else { a },
         );
-    if !(top > 0.0) {
+    if top.is_nan() || top <= 0.0 {
         return None;
     }
     let at_edge = best == 0 || best == n;
@@ -94,7 +94,7 @@ pub(super) fn place(
     let dd: f64 = dv.iter().map(|a| a * a).sum();
     let amplitude = v.iter().zip(z).map(|(a, b)| a * b).sum::<f64>() / vv;
     let information = amplitude * amplitude * (dd - vd * vd / vv);
-    let se_m = if at_edge || !(information > 0.0) {
+    let se_m = if at_edge || information.is_nan() || information <= 0.0 {
         f64::INFINITY
     } else {
         1.0 / information.sqrt()
