@@ -27,6 +27,7 @@ pub mod localize;
 pub mod noise_level;
 pub mod period;
 pub mod pulse_search;
+pub mod weak_pulse;
 pub mod window;
 
 pub use analysis::{AnalysisSettings, NoPulseFound, PulseAnalyzer, PulseFinding};
