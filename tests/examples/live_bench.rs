@@ -1,9 +1,11 @@
 //! Benchmark of the live view's cost to the 1 kHz loop (not a test): in one run, the real
 //! daemon in this process on the embedded simulated bench at time scale 1, arm enabled and
-//! holding, for SECONDS with the live view off, then for SECONDS with it on and one
-//! subscriber (an independent client reading every channel); prints one JSON line per phase.
+//! holding, for SECONDS in each mode: the live view off; on with nobody connected (`idle`);
+//! on with one subscriber (an independent client) reading every channel (`all`), or only
+//! `/tactile` (`tactile`). Prints one JSON line per phase.
 //!
 //! cargo run --release -p pulsetrack-tests --example live_bench -- [SECONDS] [--rounds N]
+//!     [--modes off,idle,tactile,all]
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -16,7 +18,38 @@ use serde_json::{Value, json};
 
 const T: Duration = Duration::from_secs(10);
 
-fn phase(seconds: f64, live: bool) -> Result<Value, String> {
+/// What the live view serves in a phase.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Mode {
+    Off,
+    Idle,
+    Tactile,
+    All,
+}
+
+impl Mode {
+    fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "off" => Ok(Mode::Off),
+            "idle" => Ok(Mode::Idle),
+            "tactile" => Ok(Mode::Tactile),
+            "all" => Ok(Mode::All),
+            _ => Err(format!("--modes: unknown mode `{s}` (off, idle, tactile, all)")),
+        }
+    }
+
+    fn describe(self) -> &'static str {
+        match self {
+            Mode::Off => "off",
+            Mode::Idle => "on, nobody connected",
+            Mode::Tactile => "on, one subscriber to /tactile",
+            Mode::All => "on, one subscriber to every channel",
+        }
+    }
+}
+
+fn phase(seconds: f64, mode: Mode) -> Result<Value, String> {
+    let live = mode != Mode::Off;
     let mut loaded = LoadedConfig::load(None).map_err(|e| e.to_string())?;
     let dir = std::env::temp_dir().join(format!("pulsetrack-live-bench-{}", std::process::id()));
     let c = &mut loaded.config;
@@ -45,11 +78,16 @@ fn phase(seconds: f64, live: bool) -> Result<Value, String> {
 
     let stop = Arc::new(AtomicBool::new(false));
     let received = Arc::new(AtomicU64::new(0));
-    let subscriber = match daemon.live_url() {
+    let topics: &[&str] = match mode {
+        Mode::Tactile => &["/tactile"],
+        _ => &ALL_TOPICS,
+    };
+    let url = daemon.live_url().filter(|_| mode != Mode::Idle);
+    let subscriber = match url {
         Some(url) => {
             let mut fox = FoxgloveClient::connect(url, T)?;
-            fox.wait_for_channels(&ALL_TOPICS, T)?;
-            fox.subscribe(&ALL_TOPICS)?;
+            fox.wait_for_channels(topics, T)?;
+            fox.subscribe(topics)?;
             let (stop, received) = (Arc::clone(&stop), Arc::clone(&received));
             Some(std::thread::spawn(move || {
                 while !stop.load(Ordering::Relaxed) {
@@ -78,7 +116,7 @@ fn phase(seconds: f64, live: bool) -> Result<Value, String> {
     let period = &after["loop"]["period"];
     let n = |v: &Value| v.as_u64().unwrap_or(0);
     Ok(json!({
-        "live": if live { "on, one subscriber to every channel" } else { "off" },
+        "live": mode.describe(),
         "seconds": seconds,
         "state": after["state"],
         "loop_cycles": n(&after["loop"]["cycles"]) - n(&before["loop"]["cycles"]),
@@ -104,10 +142,19 @@ fn main() -> Result<(), String> {
         .and_then(|i| args.get(i + 1))
         .and_then(|v| v.parse().ok())
         .unwrap_or(1);
+    let modes: Vec<Mode> = match args.iter().position(|a| a == "--modes") {
+        Some(i) => args
+            .get(i + 1)
+            .ok_or("--modes needs a list")?
+            .split(',')
+            .map(Mode::parse)
+            .collect::<Result<_, _>>()?,
+        None => vec![Mode::Off, Mode::All],
+    };
     daemon::service::logging::init("warn");
     for _ in 0..rounds {
-        for live in [false, true] {
-            println!("{}", phase(seconds, live)?);
+        for &mode in &modes {
+            println!("{}", phase(seconds, mode)?);
         }
     }
     Ok(())
