@@ -13,7 +13,7 @@ use pulsetrack_fem::model::{Kinematics, ModelFile};
 use pulsetrack_fem::run::{ModelRun, Record, run_model};
 use pulsetrack_fem::study::{
     Seed001, Seed002, StudyOptions, TABLE1_HEALTHY_PA, TABLE1_STENOTIC_PA, TABLE1_TIMES_S,
-    seed_001, seed_001_image, seed_002,
+    seed_001_image_with, seed_001_with, seed_002_with,
 };
 
 use crate::plot::{Chart, Heatmap, HeatmapFigure, Mark, Series, write_chart, write_heatmaps};
@@ -87,21 +87,23 @@ fn execute(args: &Args) -> Result<(), String> {
     }
     match args.study {
         Some(StudyName::Seed001) => {
-            let solving = spinner("solving the seed-001 study (4 models)");
-            let s = seed_001(&opts).map_err(|e| e.to_string())?;
+            let solving = models("seed-001: models solved", Some(4));
+            let s = seed_001_with(&opts, &|name| solving.step(name)).map_err(|e| e.to_string())?;
             solving.finish();
             emit(args, &s.runs, || print_seed_001(&s, &opts))?;
             if let Some(dir) = &args.plot {
                 plot_seed_001(dir, &s)?;
-                let solving = spinner("solving the tactile image (4 models over a period)");
-                let image = seed_001_image(&opts, IMAGE_SAMPLES).map_err(|e| e.to_string())?;
+                let solving = models("seed-001 tactile image: models solved", Some(4));
+                let image = seed_001_image_with(&opts, IMAGE_SAMPLES, &|name| solving.step(name))
+                    .map_err(|e| e.to_string())?;
                 solving.finish();
                 plot_tactile_image(dir, &image)?;
             }
         }
         Some(StudyName::Seed002) => {
-            let solving = spinner("solving the seed-002 study (base models, sweeps, tip shapes)");
-            let s = seed_002(&opts).map_err(|e| e.to_string())?;
+            // Base models, four sweeps and the tip shapes: counted as they end.
+            let solving = models("seed-002: models solved", None);
+            let s = seed_002_with(&opts, &|name| solving.step(name)).map_err(|e| e.to_string())?;
             solving.finish();
             let mut all: Vec<ModelRun> = s.base.clone();
             for sw in &s.sweeps {
@@ -120,6 +122,13 @@ fn execute(args: &Args) -> Result<(), String> {
 
 /// A spinner with the elapsed time on a terminal, else a line now and one every 10 s:
 /// the study's solves report no steps of their own.
+/// A count of models solved (each named as it ends), with a heartbeat between them.
+fn models(what: &str, total: Option<u64>) -> Progress {
+    let p = Progress::new(what, total);
+    p.heartbeat(Duration::from_secs(10));
+    p
+}
+
 fn spinner(what: &str) -> Progress {
     let p = Progress::new("fem", None);
     p.status(what);

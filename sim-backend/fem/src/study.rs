@@ -79,10 +79,24 @@ fn apply(mut m: ModelFile, o: &StudyOptions) -> ModelFile {
     m
 }
 
-fn run_all(models: Vec<ModelFile>, o: &StudyOptions) -> Result<Vec<ModelRun>, FemError> {
+/// Told the name of each model as its solve ends (from the solving threads, in any order):
+/// progress for a study that runs for minutes.
+pub type ModelDone<'a> = &'a (dyn Fn(&str) + Sync);
+
+fn run_all(
+    models: Vec<ModelFile>,
+    o: &StudyOptions,
+    done: ModelDone<'_>,
+) -> Result<Vec<ModelRun>, FemError> {
     models
         .into_par_iter()
-        .map(|m| run_model(&apply(m, o), o.refine))
+        .map(|m| {
+            let run = run_model(&apply(m, o), o.refine);
+            if let Ok(r) = &run {
+                done(&r.name);
+            }
+            run
+        })
         .collect()
 }
 
@@ -116,6 +130,11 @@ impl Seed001 {
 }
 
 pub fn seed_001(o: &StudyOptions) -> Result<Seed001, StudyError> {
+    seed_001_with(o, &|_| {})
+}
+
+/// [`seed_001`], telling `done` as each model is solved.
+pub fn seed_001_with(o: &StudyOptions, done: ModelDone<'_>) -> Result<Seed001, StudyError> {
     let models = load_all(&[
         "seed-001-tissue.ron",
         "seed-001-tumour.ron",
@@ -123,7 +142,7 @@ pub fn seed_001(o: &StudyOptions) -> Result<Seed001, StudyError> {
         "seed-001-stenotic-artery.ron",
     ])?;
     Ok(Seed001 {
-        runs: run_all(models, o)?,
+        runs: run_all(models, o, done)?,
     })
 }
 
@@ -132,6 +151,15 @@ pub fn seed_001(o: &StudyOptions) -> Result<Seed001, StudyError> {
 /// models superpose two solves, so this costs one factorization per model; with
 /// `finite_strain` every sample is a Newton solve.
 pub fn seed_001_image(o: &StudyOptions, samples: usize) -> Result<Seed001, StudyError> {
+    seed_001_image_with(o, samples, &|_| {})
+}
+
+/// [`seed_001_image`], telling `done` as each model is solved.
+pub fn seed_001_image_with(
+    o: &StudyOptions,
+    samples: usize,
+    done: ModelDone<'_>,
+) -> Result<Seed001, StudyError> {
     let mut models = load_all(&[
         "seed-001-tissue.ron",
         "seed-001-tumour.ron",
@@ -153,7 +181,7 @@ pub fn seed_001_image(o: &StudyOptions, samples: usize) -> Result<Seed001, Study
         m.times_s = times.clone();
     }
     Ok(Seed001 {
-        runs: run_all(models, o)?,
+        runs: run_all(models, o, done)?,
     })
 }
 
@@ -214,6 +242,7 @@ fn sweep(
     values: &[f64],
     edit: impl Fn(&mut ModelFile, f64) + Sync,
     o: &StudyOptions,
+    done: ModelDone<'_>,
 ) -> Result<Sweep, StudyError> {
     let models: Vec<ModelFile> = values
         .iter()
@@ -225,7 +254,7 @@ fn sweep(
             m
         })
         .collect();
-    let runs = run_all(models, o)?;
+    let runs = run_all(models, o, done)?;
     let points = values
         .iter()
         .zip(runs)
@@ -262,13 +291,18 @@ fn outer_radius(m: &ModelFile) -> f64 {
 }
 
 pub fn seed_002(o: &StudyOptions) -> Result<Seed002, StudyError> {
+    seed_002_with(o, &|_| {})
+}
+
+/// [`seed_002`], telling `done` as each model is solved.
+pub fn seed_002_with(o: &StudyOptions, done: ModelDone<'_>) -> Result<Seed002, StudyError> {
     let base_models = load_all(&[
         "seed-002-tissue.ron",
         "seed-002-tumour.ron",
         "seed-002-artery.ron",
     ])?;
     let artery = base_models[2].clone();
-    let base = run_all(base_models, o)?;
+    let base = run_all(base_models, o, done)?;
     let top = artery_top_depth(&artery);
     let mut sweeps = Vec::new();
     // Inner diameter 3 -> 9.5 mm, the artery's top kept at the base depth.
@@ -287,6 +321,7 @@ pub fn seed_002(o: &StudyOptions) -> Result<Seed002, StudyError> {
             }
         },
         o,
+        done,
     )?);
     sweeps.push(sweep(
         "wall-modulus",
@@ -301,6 +336,7 @@ pub fn seed_002(o: &StudyOptions) -> Result<Seed002, StudyError> {
             }
         },
         o,
+        done,
     )?);
     sweeps.push(sweep(
         "indentation",
@@ -313,6 +349,7 @@ pub fn seed_002(o: &StudyOptions) -> Result<Seed002, StudyError> {
             }
         },
         o,
+        done,
     )?);
     sweeps.push(sweep(
         "depth",
@@ -326,6 +363,7 @@ pub fn seed_002(o: &StudyOptions) -> Result<Seed002, StudyError> {
             }
         },
         o,
+        done,
     )?);
     let tips = Tip::PAPER_002;
     let tip_models: Vec<ModelFile> = tips
@@ -349,7 +387,7 @@ pub fn seed_002(o: &StudyOptions) -> Result<Seed002, StudyError> {
         finite_strain: false,
         ..*o
     };
-    let tips = run_all(tip_models, &linear)?;
+    let tips = run_all(tip_models, &linear, done)?;
     Ok(Seed002 { base, sweeps, tips })
 }
 
