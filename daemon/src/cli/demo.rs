@@ -426,7 +426,7 @@ fn wait_mark(say: &Say, c: &mut Client) -> Result<bool, String> {
 
 /// Top view, lateral error against distance, and a 4 s trace of all ten elements.
 fn write_plots(summary: &Value, dir: &Path, artery: &[(f64, f64)]) -> Result<usize, String> {
-    use crate::plot::{Chart, Mark, Series, write_chart};
+    use crate::plot::{Chart, Hue, Mark, Series, write_chart};
     let recording = summary["recording"].as_str().ok_or("no recording")?;
     let back = recover::read(Path::new(recording)).map_err(|e| e.to_string())?;
     let located: Vec<&Value> = summary["located"]
@@ -460,11 +460,8 @@ fn write_plots(summary: &Value, dir: &Path, artery: &[(f64, f64)]) -> Result<usi
         })
         .collect();
     if !artery.is_empty() {
-        top = top.with(Series::new(
-            "artery (true path)",
-            artery.to_vec(),
-            Mark::Line,
-        ));
+        top = top
+            .with(Series::new("artery (true path)", artery.to_vec(), Mark::Line).hue(Hue::Truth));
     }
     if !truth.is_empty() {
         top = top.with(Series::new("sensor centre (true)", truth, Mark::Line));

@@ -18,7 +18,7 @@ use sim::scene::{ArteryPath, Scene};
 use sim::trial::{TrialResult, TrialsSummary};
 use sim::trial_event::TrialEvent;
 
-use crate::plot::{Chart, Mark, Series, write_chart};
+use crate::plot::{Chart, Hue, Mark, Series, write_chart};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -122,7 +122,7 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
     // The results first: a chart that cannot be drawn must not lose them.
     let plotted = args.plot.as_ref().map(|dir| {
         let path = ArteryPath::from_spec(&scene.artery.path).map_err(|e| e.to_string())?;
-        plot_trials(&config, &scene, &path, &trials, dir).map_err(|e| e.to_string())
+        plot_trials(&config, &scene, &args.tracker, &path, &trials, dir).map_err(|e| e.to_string())
     });
     if args.json {
         let report = Report {
@@ -241,14 +241,26 @@ fn trial_label(i: usize, t: &TrialResult) -> String {
     }
 }
 
+/// What a chart shows: scene, tracker and the trials' seeds, for its title.
+fn figure_of(scene: &Scene, tracker: &str, trials: &[TrialResult]) -> String {
+    let seeds = match (trials.first(), trials.last()) {
+        (Some(a), Some(b)) if trials.len() > 1 => format!("seeds {}-{}", a.seed, b.seed),
+        (Some(a), _) => format!("seed {}", a.seed),
+        _ => "no trial".to_string(),
+    };
+    format!("{}, {tracker}, {seeds}", scene.name)
+}
+
 fn plot_trials(
     config: &Config,
     scene: &Scene,
+    tracker: &str,
     path: &ArteryPath,
     trials: &[TrialResult],
     dir: &Path,
 ) -> Result<Plotted, crate::plot::PlotError> {
     let mm = |v: f64| v * 1e3;
+    let figure = figure_of(scene, tracker, trials);
     let mut files = Vec::new();
     let mut notes = Vec::new();
     for (i, t) in trials.iter().enumerate() {
@@ -263,25 +275,31 @@ fn plot_trials(
     }
     // Top view: the true path, every trial's located points, and where the sensor truly was.
     let mut top = Chart::new(
-        format!("{}: located points (top view)", scene.name),
+        format!("{figure}: located points, top view"),
         "x (mm)",
         "z (mm)",
     )
-    .with(Series::new(
-        "true artery",
-        path.sample(0.001)
-            .iter()
-            .map(|p| (mm(p.x_m), mm(p.z_m)))
-            .collect(),
-        Mark::Line,
-    ));
+    .with(
+        Series::new(
+            "true artery",
+            path.sample(0.001)
+                .iter()
+                .map(|p| (mm(p.x_m), mm(p.z_m)))
+                .collect(),
+            Mark::Line,
+        )
+        .hue(Hue::Truth),
+    );
     top.equal_aspect = true;
     for (i, t) in trials.iter().enumerate() {
-        top = top.with(Series::new(
-            trial_label(i, t),
-            t.located.iter().map(|p| (mm(p.x_m), mm(p.z_m))).collect(),
-            Mark::LinePoints,
-        ));
+        top = top.with(
+            Series::new(
+                trial_label(i, t),
+                t.located.iter().map(|p| (mm(p.x_m), mm(p.z_m))).collect(),
+                Mark::LinePoints,
+            )
+            .hue(Hue::Index(i)),
+        );
     }
     let false_points: Vec<&sim::trial::LocatedSample> = trials
         .iter()
@@ -306,19 +324,22 @@ fn plot_trials(
     files.extend(write_chart(&top, dir, "top_view")?);
     // Lateral error against distance along the path.
     let mut err = Chart::new(
-        format!("{}: lateral error of located points", scene.name),
+        format!("{figure}: lateral error of located points"),
         "distance along the path (mm)",
         "signed lateral error (mm)",
     );
     for (i, t) in trials.iter().enumerate() {
-        err = err.with(Series::new(
-            trial_label(i, t),
-            t.located
-                .iter()
-                .map(|p| (mm(p.along_path_m), mm(p.lateral_error_m)))
-                .collect(),
-            Mark::LinePoints,
-        ));
+        err = err.with(
+            Series::new(
+                trial_label(i, t),
+                t.located
+                    .iter()
+                    .map(|p| (mm(p.along_path_m), mm(p.lateral_error_m)))
+                    .collect(),
+                Mark::LinePoints,
+            )
+            .hue(Hue::Index(i)),
+        );
     }
     if !false_points.is_empty() {
         err = err.with(Series::new(
@@ -355,8 +376,8 @@ fn plot_trials(
         });
         let mut trace = Chart::new(
             format!(
-                "{}: all ten elements at the first placement, 4 s, band-passed",
-                scene.name
+                "{}, {tracker}, seed {}: the ten elements at the first placement, 4 s, band-passed",
+                scene.name, t.seed
             ),
             "time (s)",
             "filtered force (N)",

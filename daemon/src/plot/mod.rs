@@ -27,11 +27,23 @@ pub enum Mark {
     Crosses,
 }
 
+/// A series' colour.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Hue {
+    /// The palette colour of the series' place in its chart.
+    Auto,
+    /// Palette colour `i` (modulo its ten): the same trial in the same colour on every chart.
+    Index(usize),
+    /// Black: what the simulator knows to be true, never a measurement.
+    Truth,
+}
+
 #[derive(Debug, Clone)]
 pub struct Series {
     pub name: String,
     pub points: Vec<(f64, f64)>,
     pub mark: Mark,
+    pub hue: Hue,
 }
 
 impl Series {
@@ -40,7 +52,13 @@ impl Series {
             name: name.into(),
             points,
             mark,
+            hue: Hue::Auto,
         }
+    }
+
+    pub fn hue(mut self, hue: Hue) -> Self {
+        self.hue = hue;
+        self
     }
 }
 
@@ -167,16 +185,36 @@ fn bounds(chart: &Chart) -> Option<((f64, f64), (f64, f64))> {
     Some(((x0, x1), (y0, y1)))
 }
 
+/// Width of the legend's column, right of the data, px.
+const LEGEND_W: u32 = 260;
+
+fn color_of(hue: Hue, place: usize) -> RGBColor {
+    match hue {
+        Hue::Auto => PALETTE[place % PALETTE.len()],
+        Hue::Index(i) => PALETTE[i % PALETTE.len()],
+        Hue::Truth => RGBColor(0, 0, 0),
+    }
+}
+
 fn draw<DB: DrawingBackend>(
     chart: &Chart,
     root: DrawingArea<DB, plotters::coord::Shift>,
 ) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| e.to_string();
+    let data_w = chart.size_px.0.saturating_sub(LEGEND_W).max(1);
+    let data_chart = Chart {
+        size_px: (data_w, chart.size_px.1),
+        ..chart.clone()
+    };
     let ((x0, x1), (y0, y1)) =
-        bounds(chart).ok_or_else(|| PlotError::Empty(chart.title.clone()).to_string())?;
+        bounds(&data_chart).ok_or_else(|| PlotError::Empty(chart.title.clone()).to_string())?;
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut ctx = ChartBuilder::on(&root)
-        .caption(&chart.title, ("sans-serif", 24))
+    // The title spans the figure; the legend has its own column, outside the data.
+    let root = root
+        .titled(&chart.title, ("sans-serif", 22))
+        .map_err(|e| err(&e))?;
+    let (data, legend) = root.split_horizontally(data_w);
+    let mut ctx = ChartBuilder::on(&data)
         .margin(15)
         .x_label_area_size(45)
         .y_label_area_size(70)
@@ -189,7 +227,7 @@ fn draw<DB: DrawingBackend>(
         .draw()
         .map_err(|e| err(&e))?;
     for (i, s) in chart.series.iter().enumerate() {
-        let color = PALETTE[i % PALETTE.len()];
+        let color = color_of(s.hue, i);
         let pts: Vec<(f64, f64)> = s
             .points
             .iter()
@@ -198,38 +236,76 @@ fn draw<DB: DrawingBackend>(
             .collect();
         if matches!(s.mark, Mark::Line | Mark::LinePoints) {
             ctx.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
-                .map_err(|e| err(&e))?
-                .label(s.name.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                });
+                .map_err(|e| err(&e))?;
         }
         if s.mark == Mark::Crosses {
-            let red = RGBColor(220, 0, 0);
-            ctx.draw_series(pts.iter().map(|&p| Cross::new(p, 8, red.stroke_width(3))))
-                .map_err(|e| err(&e))?
-                .label(s.name.clone())
-                .legend(move |(x, y)| Cross::new((x + 10, y), 6, red.stroke_width(3)));
+            ctx.draw_series(pts.iter().map(|&p| Cross::new(p, 8, CROSS.stroke_width(3))))
+                .map_err(|e| err(&e))?;
         }
         if matches!(s.mark, Mark::Points | Mark::LinePoints) {
-            let drawn = ctx
-                .draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))
+            ctx.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))
                 .map_err(|e| err(&e))?;
-            if s.mark == Mark::Points {
-                drawn
-                    .label(s.name.clone())
-                    .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
-            }
         }
     }
-    ctx.configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 15))
-        .draw()
-        .map_err(|e| err(&e))?;
+    draw_legend(chart, &legend).map_err(|e| err(&e))?;
     root.present().map_err(|e| err(&e))?;
     Ok(())
+}
+
+/// The colour of points that must stand out (false points).
+const CROSS: RGBColor = RGBColor(220, 0, 0);
+
+/// One entry per series, top down, each with its mark in its colour; names wrap to the
+/// column's width.
+fn draw_legend<DB: DrawingBackend>(
+    chart: &Chart,
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let font = ("sans-serif", 14).into_font();
+    let mut y = 30;
+    for (i, s) in chart.series.iter().enumerate() {
+        let color = color_of(s.hue, i);
+        let mid = y + 8;
+        match s.mark {
+            Mark::Line => area.draw(&PathElement::new(
+                vec![(8, mid), (32, mid)],
+                color.stroke_width(2),
+            ))?,
+            Mark::LinePoints => {
+                area.draw(&PathElement::new(
+                    vec![(8, mid), (32, mid)],
+                    color.stroke_width(2),
+                ))?;
+                area.draw(&Circle::new((20, mid), 4, color.filled()))?;
+            }
+            Mark::Points => area.draw(&Circle::new((20, mid), 4, color.filled()))?,
+            Mark::Crosses => area.draw(&Cross::new((20, mid), 6, CROSS.stroke_width(3)))?,
+        }
+        for line in wrap(&s.name, 30) {
+            area.draw(&Text::new(line, (40, y), font.clone()))?;
+            y += 18;
+        }
+        y += 6;
+    }
+    Ok(())
+}
+
+/// `text` in lines of at most about `width` characters, broken at spaces.
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in text.split_whitespace() {
+        match lines.last_mut() {
+            Some(l) if l.len() + 1 + word.len() <= width => {
+                l.push(' ');
+                l.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    if lines.is_empty() {
+        lines.push(String::new());
+    }
+    lines
 }
 
 #[cfg(test)]
@@ -263,6 +339,29 @@ mod tests {
             "the crosses have a legend entry"
         );
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_hue_is_kept_whatever_the_series_place_and_truth_is_black() {
+        assert_eq!(color_of(Hue::Index(1), 0), color_of(Hue::Auto, 1));
+        assert_eq!(color_of(Hue::Index(1), 7), PALETTE[1]);
+        assert_eq!(color_of(Hue::Index(11), 0), PALETTE[1]);
+        assert_eq!(color_of(Hue::Truth, 3), RGBColor(0, 0, 0));
+    }
+
+    #[test]
+    fn legend_names_wrap_at_spaces() {
+        assert_eq!(
+            wrap(
+                "trial 1 (seed 1): never seeded (not_seeded), nothing located",
+                30
+            ),
+            [
+                "trial 1 (seed 1): never seeded",
+                "(not_seeded), nothing located"
+            ]
+        );
+        assert_eq!(wrap("", 30), [""]);
     }
 
     #[test]
