@@ -34,7 +34,9 @@ impl Mode {
             "idle" => Ok(Mode::Idle),
             "tactile" => Ok(Mode::Tactile),
             "all" => Ok(Mode::All),
-            _ => Err(format!("--modes: unknown mode `{s}` (off, idle, tactile, all)")),
+            _ => Err(format!(
+                "--modes: unknown mode `{s}` (off, idle, tactile, all)"
+            )),
         }
     }
 

@@ -31,7 +31,7 @@ use sim::family::LoadedFamily;
 use sim::scene::Scene;
 use sim::trial::{LateralError, TrialResult};
 
-use crate::plot::{Chart, Mark, Series, write_chart};
+use crate::plot::{Chart, Hue, Mark, Series, Spread, write_chart};
 
 /// Path length the beat count is normalized to (the seed's 26 cm tracks), m.
 const REFERENCE_LENGTH_M: f64 = 0.26;
@@ -123,6 +123,10 @@ pub struct Row {
     pub points: usize,
     /// The median over the trials that located points of each one's own lateral error SD, m.
     pub error_sd_trial_median_m: Option<f64>,
+    /// The smallest and largest of those per-trial SDs, m (the front's vertical error bar).
+    pub error_sd_trial_range_m: Option<[f64; 2]>,
+    /// SD over the trials of the autonomous tracking time, s (the front's horizontal bar).
+    pub duration_s_sd: f64,
     /// How the trials ended, in trial order.
     pub end_reasons: Vec<String>,
     /// Wall-clock seconds per trial (the only machine-dependent field).
@@ -360,6 +364,10 @@ fn summarize(
         .collect();
     per_trial_sd.sort_by(f64::total_cmp);
     let median_sd = per_trial_sd.get(per_trial_sd.len() / 2).copied();
+    let sd_range = per_trial_sd
+        .first()
+        .zip(per_trial_sd.last())
+        .map(|(lo, hi)| [*lo, *hi]);
     let located = pooled.points > 0;
     let mean = |f: &dyn Fn(&TrialResult) -> f64| trials.iter().map(f).sum::<f64>() / n;
     Row {
@@ -382,6 +390,16 @@ fn summarize(
         beats_per_26cm_mean,
         points: pooled.points,
         error_sd_trial_median_m: median_sd,
+        error_sd_trial_range_m: sd_range,
+        duration_s_sd: {
+            let m = mean(&|t| t.duration_s);
+            (trials
+                .iter()
+                .map(|t| (t.duration_s - m).powi(2))
+                .sum::<f64>()
+                / n)
+                .sqrt()
+        },
         end_reasons: trials.iter().map(|t| t.end_reason.clone()).collect(),
         wall_s_mean: mean(&|t| t.wall_s),
     }
@@ -563,7 +581,9 @@ fn millimetres(m: Option<f64>) -> String {
 }
 
 /// Per scene: mean track time against lateral error SD, one series per tracker through its
-/// speed settings (fastest last).
+/// speed settings (fastest last), each point labelled with its speed and carrying bars: the
+/// track time's SD over the trials across, the smallest to largest per-trial error SD up and
+/// down. A tracker that located no point at some setting is named in the legend as such.
 fn plot_fronts(report: &Report, dir: &Path) -> Result<Vec<PathBuf>, crate::plot::PlotError> {
     let mut files = Vec::new();
     let mut scenes: Vec<&str> = Vec::new();
@@ -573,39 +593,73 @@ fn plot_fronts(report: &Report, dir: &Path) -> Result<Vec<PathBuf>, crate::plot:
         }
     }
     for scene in scenes {
+        let rows: Vec<&Row> = report.rows.iter().filter(|r| r.scene == scene).collect();
+        if rows.iter().all(|r| r.error_sd_m.is_none()) {
+            // Nothing to place on the axes: the table says why.
+            continue;
+        }
         let mut chart = Chart::new(
             format!(
-                "{scene}: speed against error ({} trials per point)",
-                report.trials
+                "{scene}: speed against error, {} trials per point, seeds {}-{}",
+                report.trials,
+                report.seed,
+                report.seed + u64::from(report.trials) - 1
             ),
             "mean track time (s)",
             "lateral error SD (mm)",
         );
         let mut names: Vec<&str> = Vec::new();
-        for r in report.rows.iter().filter(|r| r.scene == scene) {
+        for r in &rows {
             if !names.contains(&r.tracker_name.as_str()) {
                 names.push(&r.tracker_name);
             }
         }
-        for name in names {
-            let mut points: Vec<(f64, f64, f64)> = report
-                .rows
+        for (hue, name) in names.into_iter().enumerate() {
+            let mut mine: Vec<&Row> = rows
                 .iter()
-                .filter(|r| r.scene == scene && r.tracker_name == name)
-                .filter_map(|r| {
-                    Some((
-                        r.speed_m_s.unwrap_or(0.0),
-                        r.duration_s_mean,
-                        r.error_sd_m? * 1e3,
-                    ))
+                .copied()
+                .filter(|r| r.tracker_name == name)
+                .collect();
+            mine.sort_by(|a, b| {
+                a.speed_m_s
+                    .unwrap_or(0.0)
+                    .total_cmp(&b.speed_m_s.unwrap_or(0.0))
+            });
+            let (placed, unplaced): (Vec<&Row>, Vec<&Row>) =
+                mine.into_iter().partition(|r| r.error_sd_m.is_some());
+            let speed = |r: &Row| {
+                r.speed_m_s.map_or("default speed".to_string(), |v| {
+                    format!("{:.0} mm/s", v * 1e3)
+                })
+            };
+            let mut label = name.to_string();
+            if !unplaced.is_empty() {
+                let at: Vec<String> = unplaced.iter().map(|r| speed(r)).collect();
+                label = format!("{label}; located no point at {}", at.join(", "));
+            }
+            let points = placed
+                .iter()
+                .map(|r| (r.duration_s_mean, r.error_sd_m.unwrap_or(f64::NAN) * 1e3))
+                .collect();
+            let bars = placed
+                .iter()
+                .map(|r| {
+                    let [lo, hi] = r.error_sd_trial_range_m.unwrap_or([f64::NAN; 2]);
+                    Spread {
+                        x: (
+                            r.duration_s_mean - r.duration_s_sd,
+                            r.duration_s_mean + r.duration_s_sd,
+                        ),
+                        y: (lo * 1e3, hi * 1e3),
+                    }
                 })
                 .collect();
-            points.sort_by(|a, b| a.0.total_cmp(&b.0));
-            chart = chart.with(Series::new(
-                name,
-                points.iter().map(|&(_, t, e)| (t, e)).collect(),
-                Mark::LinePoints,
-            ));
+            chart = chart.with(
+                Series::new(label, points, Mark::LinePoints)
+                    .hue(Hue::Index(hue))
+                    .bars(bars)
+                    .labels(placed.iter().map(|r| speed(r)).collect()),
+            );
         }
         files.extend(write_chart(&chart, dir, &format!("front_{scene}"))?);
     }

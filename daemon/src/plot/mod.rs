@@ -38,12 +38,23 @@ pub enum Hue {
     Truth,
 }
 
+/// The spread about one point: its x and y ranges, drawn as capped bars.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spread {
+    pub x: (f64, f64),
+    pub y: (f64, f64),
+}
+
 #[derive(Debug, Clone)]
 pub struct Series {
     pub name: String,
     pub points: Vec<(f64, f64)>,
     pub mark: Mark,
     pub hue: Hue,
+    /// One per point (or none).
+    pub bars: Vec<Spread>,
+    /// A short text beside each point (or none).
+    pub labels: Vec<String>,
 }
 
 impl Series {
@@ -53,7 +64,21 @@ impl Series {
             points,
             mark,
             hue: Hue::Auto,
+            bars: Vec::new(),
+            labels: Vec::new(),
         }
+    }
+
+    /// Error bars, one per point.
+    pub fn bars(mut self, bars: Vec<Spread>) -> Self {
+        self.bars = bars;
+        self
+    }
+
+    /// A text beside each point.
+    pub fn labels(mut self, labels: Vec<String>) -> Self {
+        self.labels = labels;
+        self
     }
 
     pub fn hue(mut self, hue: Hue) -> Self {
@@ -153,13 +178,18 @@ const PALETTE: [RGBColor; 10] = [
 ];
 
 fn bounds(chart: &Chart) -> Option<((f64, f64), (f64, f64))> {
+    let bar_corners = chart
+        .series
+        .iter()
+        .flat_map(|s| s.bars.iter().flat_map(|b| [(b.x.0, b.y.0), (b.x.1, b.y.1)]));
     let pts = chart
         .series
         .iter()
-        .flat_map(|s| s.points.iter())
+        .flat_map(|s| s.points.iter().copied())
+        .chain(bar_corners)
         .filter(|(x, y)| x.is_finite() && y.is_finite());
     let mut b: Option<(f64, f64, f64, f64)> = None;
-    for &(x, y) in pts {
+    for (x, y) in pts {
         b = Some(match b {
             None => (x, x, y, y),
             Some((x0, x1, y0, y1)) => (x0.min(x), x1.max(x), y0.min(y), y1.max(y)),
@@ -245,6 +275,29 @@ fn draw<DB: DrawingBackend>(
         if matches!(s.mark, Mark::Points | Mark::LinePoints) {
             ctx.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))
                 .map_err(|e| err(&e))?;
+        }
+        for (&(x, y), b) in s.points.iter().zip(&s.bars) {
+            if [x, y, b.x.0, b.x.1, b.y.0, b.y.1]
+                .iter()
+                .all(|v| v.is_finite())
+            {
+                // Plain segments: plotters' own error bars need a feature for two lines.
+                let style = color.stroke_width(1);
+                ctx.draw_series([
+                    PathElement::new(vec![(x, b.y.0), (x, b.y.1)], style),
+                    PathElement::new(vec![(b.x.0, y), (b.x.1, y)], style),
+                ])
+                .map_err(|e| err(&e))?;
+            }
+        }
+        let font = ("sans-serif", 13).into_font().color(&color);
+        for (&p, label) in s.points.iter().zip(&s.labels) {
+            if p.0.is_finite() && p.1.is_finite() {
+                ctx.draw_series([
+                    EmptyElement::at(p) + Text::new(label.clone(), (6, -16), font.clone())
+                ])
+                .map_err(|e| err(&e))?;
+            }
         }
     }
     draw_legend(chart, &legend).map_err(|e| err(&e))?;
@@ -347,6 +400,28 @@ mod tests {
         assert_eq!(color_of(Hue::Index(1), 7), PALETTE[1]);
         assert_eq!(color_of(Hue::Index(11), 0), PALETTE[1]);
         assert_eq!(color_of(Hue::Truth, 3), RGBColor(0, 0, 0));
+    }
+
+    #[test]
+    fn bars_and_point_labels_are_drawn_and_widen_the_axes() {
+        let dir = std::env::temp_dir().join(format!("pulsetrack-plot-bars-{}", std::process::id()));
+        let chart = Chart::new("front", "t (s)", "sd (mm)").with(
+            Series::new("beatslide", vec![(20.0, 0.25)], Mark::LinePoints)
+                .bars(vec![Spread {
+                    x: (15.0, 25.0),
+                    y: (0.2, 0.4),
+                }])
+                .labels(vec!["16 mm/s".into()]),
+        );
+        let ((x0, x1), (y0, y1)) = bounds(&chart).unwrap();
+        assert!(x0 < 15.0 && x1 > 25.0 && y0 < 0.2 && y1 > 0.4);
+        let files = write_chart(&chart, &dir, "front").unwrap();
+        let svg = std::fs::read_to_string(&files[1]).unwrap();
+        assert!(
+            svg.contains("16 mm/s") && svg.contains("beatslide"),
+            "{svg}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
