@@ -166,7 +166,17 @@ fn main() {
             "{b} bound beats: {trials} trials in {:.0} s",
             started.elapsed().as_secs_f64()
         );
-        report(b, per_beat_snr, &table, &thresholds, &noise, &pulses, segment_s, looks, &mut rng);
+        report(
+            b,
+            per_beat_snr,
+            &table,
+            &thresholds,
+            &noise,
+            &pulses,
+            segment_s,
+            looks,
+            &mut rng,
+        );
     }
 }
 
@@ -247,8 +257,8 @@ fn report(
         let bound_pd = pulses
             .iter()
             .map(|r| {
-                let beats = r.segments(window_beats, segment_s, looks) as f64 * segment_s
-                    / r.period_s;
+                let beats =
+                    r.segments(window_beats, segment_s, looks) as f64 * segment_s / r.period_s;
                 1.0 - upper_tail(per_beat_snr * beats.sqrt() - eta)
             })
             .sum::<f64>()
@@ -328,8 +338,10 @@ fn kernel_table() -> Vec<(f64, [f64; ELEMENTS])> {
 /// period `period_s` has matched-filter SNR `snr` (the bound's per-beat SNR is linear in it).
 fn amplitude_for(snr: f64, x0: f64, period_s: f64) -> Result<f64, String> {
     let h = 0.000_25;
-    let here: Vec<(f64, [f64; ELEMENTS])> =
-        [x0 - h, x0, x0 + h].iter().map(|&x| (x, kernel_at(x))).collect();
+    let here: Vec<(f64, [f64; ELEMENTS])> = [x0 - h, x0, x0 + h]
+        .iter()
+        .map(|&x| (x, kernel_at(x)))
+        .collect();
     let peak = kernel_at(x0).iter().copied().fold(0.0, f64::max);
     let w: Vec<f64> = (0..(period_s * FS_HZ).round() as usize)
         .map(|i| generic_pressure(i as f64 / FS_HZ, period_s) / peak)

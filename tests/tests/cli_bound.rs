@@ -83,6 +83,7 @@ fn bad_sensor_overrides_are_named() {
         ("--noise-n", "-0.01"),
         ("--noise-n", "NaN"),
         ("--element-length-mm", "0"),
+        ("--element-length-mm", "-2"),
         ("--element-length-mm", "50"),
         ("--element-length-mm", "inf"),
     ] {

@@ -27,11 +27,11 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Element noise SD, N, in place of the scene's `sensor.noise_sd_n`.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub noise_n: Option<f64>,
     /// Each element's length along the artery, mm, in place of the scene's (its
     /// `sensor.element_area_m2` over the pitch); the element noise stays as given.
-    #[arg(long, value_name = "MM")]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     pub element_length_mm: Option<f64>,
     /// Print one JSON document on stdout (SI units) instead of a summary.
     #[arg(long)]
