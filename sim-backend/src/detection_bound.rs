@@ -71,6 +71,9 @@ pub struct SceneBound {
     pub pfa: f64,
     pub pd: f64,
     pub noise_sd_n: f64,
+    /// Each element's length along the artery, m (its sensing area over the pitch): the
+    /// pulse's force on an element grows with it, the element noise as the scene says.
+    pub element_length_m: f64,
     pub sample_rate_hz: f64,
     pub mean_period_s: f64,
     /// The pump's pulse pressure energy per beat, its mean removed, Pa² × samples.
@@ -154,6 +157,7 @@ pub fn scene_bound(
         pfa: options.pfa,
         pd: options.pd,
         noise_sd_n,
+        element_length_m: scene.sensor.element_area_m2 / pitch,
         sample_rate_hz,
         mean_period_s,
         pulse_energy_pa2: energy,
@@ -242,6 +246,61 @@ mod tests {
         // Out to the array's last element, the pulse falls and the beats rise.
         let edge = a.positions.last().expect("rows");
         assert!(edge.offset_m >= 0.008 && edge.beats_unknown_position > a0.beats_unknown_position);
+    }
+
+    #[test]
+    fn quieter_or_longer_elements_shorten_the_bound_as_the_square_of_the_snr() {
+        let config = sim_config();
+        let seed = load("weak-pulse-3kpa.ron", None).expect("scene");
+        let at = |scene: &Scene| scene_bound(scene, &config, options()).expect("bound");
+        // Where the arc runs along x, the elements' long side lies along the artery.
+        let mut aligned = seed.clone();
+        aligned.placements[0] = SurfacePoint::new(0.0, 0.0272);
+        let base = at(&aligned);
+        let mut quiet = aligned.clone();
+        quiet.sensor.noise_sd_n /= 2.0;
+        let quiet = at(&quiet);
+        let mut long = aligned.clone();
+        long.sensor.element_area_m2 *= 2.0;
+        let long = at(&long);
+        assert!((long.element_length_m / base.element_length_m - 2.0).abs() < 1e-9);
+        for (b, q, l) in rows_side_by_side(&base, &quiet, &long) {
+            // Half the noise: twice the SNR per beat, a quarter of the beats.
+            let ratio = b.beats_unknown_position / q.beats_unknown_position;
+            assert!((ratio - 4.0).abs() < 0.01, "noise: {ratio}");
+            // Twice the element's length along the artery: twice the pulsatile force (its
+            // area times the pressure the tissue passes on) over the same per-element
+            // noise (a readout-limited element).
+            let ratio = b.beats_unknown_position / l.beats_unknown_position;
+            assert!(
+                (ratio - 4.0).abs() < 0.08,
+                "length at {} m: {ratio}",
+                b.offset_m
+            );
+            // The position is known as well after the (fewer) beats: the same SNR.
+            assert!((q.position_sd_m / b.position_sd_m - 1.0).abs() < 0.05);
+        }
+        // At the seed's placement the arc crosses the element line obliquely (about 47°):
+        // a longer element also spans the kernel across the artery, so it gains less.
+        let oblique = at(&seed);
+        let mut long = seed.clone();
+        long.sensor.element_area_m2 *= 2.0;
+        let long = at(&long);
+        let ratio =
+            oblique.positions[0].beats_unknown_position / long.positions[0].beats_unknown_position;
+        assert!(ratio > 3.0 && ratio < 3.9, "oblique: {ratio}");
+    }
+
+    fn rows_side_by_side<'a>(
+        a: &'a SceneBound,
+        b: &'a SceneBound,
+        c: &'a SceneBound,
+    ) -> impl Iterator<Item = (&'a PositionBound, &'a PositionBound, &'a PositionBound)> {
+        a.positions
+            .iter()
+            .zip(&b.positions)
+            .zip(&c.positions)
+            .map(|((x, y), z)| (x, y, z))
     }
 
     #[test]

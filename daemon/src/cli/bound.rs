@@ -1,6 +1,8 @@
-//! `pulsetrack bound --scene FILE [--json] [--pfa P] [--pd P]`: the weakest pulse the scene's
-//! physics lets an ideal detector feel: the beats it needs to decide, and how well it then
-//! knows the artery's position (docs/signal-processing.md, "The detection bound").
+//! `pulsetrack bound --scene FILE [--json] [--pfa P] [--pd P] [--noise-n N]
+//! [--element-length-mm L]`: the weakest pulse the scene's physics lets an ideal detector
+//! feel: the beats it needs to decide, and how well it then knows the artery's position
+//! (docs/signal-processing.md, "The detection bound"). The two sensor overrides ask how the
+//! bound moves with another array (quieter elements, longer ones along the artery).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -24,6 +26,13 @@ pub struct Args {
     /// Seeds the pump's beat-to-beat variability and the threshold's noise draws.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Element noise SD, N, in place of the scene's `sensor.noise_sd_n`.
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub noise_n: Option<f64>,
+    /// Each element's length along the artery, mm, in place of the scene's (its
+    /// `sensor.element_area_m2` over the pitch); the element noise stays as given.
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    pub element_length_mm: Option<f64>,
     /// Print one JSON document on stdout (SI units) instead of a summary.
     #[arg(long)]
     pub json: bool,
@@ -42,7 +51,8 @@ pub fn run(args: &Args) -> ExitCode {
 
 fn run_inner(args: &Args) -> Result<(), String> {
     let config = load_config(args.config.as_deref())?;
-    let scene = sim::scene::load(&args.scene, None).map_err(|e| e.to_string())?;
+    let mut scene = sim::scene::load(&args.scene, None).map_err(|e| e.to_string())?;
+    override_sensor(&mut scene.sensor, args)?;
     let options = BoundOptions {
         pfa: args.pfa,
         pd: args.pd,
@@ -58,12 +68,42 @@ fn run_inner(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
+/// Apply `--noise-n` and `--element-length-mm`, refusing what the simulator could not model.
+fn override_sensor(sensor: &mut sim::scene::SensorSpec, args: &Args) -> Result<(), String> {
+    if let Some(n) = args.noise_n {
+        // The scene allows 0 (a noiseless sensor); a bound needs some noise.
+        if !(n.is_finite() && n > 0.0 && n <= 10.0) {
+            return Err(format!(
+                "--noise-n must be an element noise SD in newtons, above 0 and at most 10, got {n}"
+            ));
+        }
+        sensor.noise_sd_n = n;
+    }
+    if let Some(mm) = args.element_length_mm {
+        let length_m = mm * 1e-3;
+        // The elements lie on the bottom of the sensor's cylinder, whose diameter runs
+        // along the artery; the scene's own limits on an element's area hold too.
+        let most_m = sensor.body_diameter_m.min(1e-3 / sensor.pitch_m);
+        let least_m = 1e-8 / sensor.pitch_m;
+        if !(length_m.is_finite() && length_m >= least_m && length_m <= most_m) {
+            return Err(format!(
+                "--element-length-mm must be from {:.3} to {:.1} mm (the sensor body's diameter), got {mm}",
+                least_m * 1e3,
+                most_m * 1e3
+            ));
+        }
+        sensor.element_area_m2 = length_m * sensor.pitch_m;
+    }
+    Ok(())
+}
+
 fn print_summary(b: &SceneBound) {
     outln!(
-        "{}: element noise {:.1} mN at {:.0} Hz, heart period {:.2} s; deciding at a false-alarm rate of {} with probability {}",
+        "{}: element noise {:.1} mN at {:.0} Hz, elements {:.1} mm along the artery, heart period {:.2} s; deciding at a false-alarm rate of {} with probability {}",
         b.scene,
         b.noise_sd_n * 1e3,
         b.sample_rate_hz,
+        b.element_length_m * 1e3,
         b.mean_period_s,
         b.pfa,
         b.pd
