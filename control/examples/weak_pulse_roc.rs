@@ -30,6 +30,8 @@
 
 extern crate pulsetrack_control as control;
 
+#[path = "../src/test_heart.rs"]
+mod test_heart;
 #[path = "../src/test_normals.rs"]
 mod test_normals;
 
@@ -41,6 +43,7 @@ use control::signal::weak_pulse::{
     NoiseLaw, PulseShape, WeakPulseDetector, WeakPulseSettings, generic_pressure,
 };
 use control::types::{ELEMENTS, TactileFrame};
+use test_heart::beats;
 use test_normals::Normals;
 
 const SIGMA_N: f64 = 0.012;
@@ -348,22 +351,6 @@ fn amplitude_for(snr: f64, x0: f64, period_s: f64) -> Result<f64, String> {
         .collect();
     let unit = per_beat(&here, 1, waveform_energy(&w), SIGMA_N).map_err(|e| e.to_string())?;
     Ok(snr / unit.snr)
-}
-
-/// Beat onsets and intervals over `span_s` for a mean period `t0`: breathing (4 %, 0.25 Hz),
-/// a slow wander (AR(1), 3 %) and beat-to-beat scatter (2 %), as the detector's tests.
-fn beats(t0: f64, span_s: f64, rng: &mut Normals) -> Vec<(f64, f64)> {
-    let mut t = -t0 * rng.uniform();
-    let (mut wander, psi) = (0.0, std::f64::consts::TAU * rng.uniform());
-    let mut out = Vec::new();
-    while t < span_s + 2.0 {
-        wander = 0.95 * wander + 0.03 * (1.0f64 - 0.95 * 0.95).sqrt() * rng.next();
-        let rsa = 0.04 * (std::f64::consts::TAU * 0.25 * t + psi).sin();
-        let rr = t0 * (1.0 + rsa + wander + 0.02 * rng.next());
-        out.push((t, rr));
-        t += rr;
-    }
-    out
 }
 
 /// Feed frames until `looks` segment ends have been reported (or the detector stops); the

@@ -18,6 +18,8 @@ pub mod sensor;
 pub mod signal;
 pub mod staleness;
 #[cfg(test)]
+mod test_heart;
+#[cfg(test)]
 mod test_normals;
 pub mod tracker;
 pub mod types;
