@@ -43,7 +43,7 @@ use control::signal::weak_pulse::{
     NoiseLaw, PulseShape, WeakPulseDetector, WeakPulseSettings, generic_pressure,
 };
 use control::types::{ELEMENTS, TactileFrame};
-use test_heart::beats;
+use test_heart::{BeatCursor, beats};
 use test_normals::Normals;
 
 const SIGMA_N: f64 = 0.012;
@@ -372,16 +372,12 @@ fn feed(
     let peak = s.iter().copied().fold(0.0, f64::max);
     let mut running = Vec::with_capacity(looks);
     let mut top = f64::NEG_INFINITY;
-    let mut beat = 0;
+    let mut heart = BeatCursor::new(onsets);
     for i in 0u64.. {
         let t = i as f64 / FS_HZ;
-        while beat + 1 < onsets.len() && onsets[beat + 1].0 <= t {
-            beat += 1;
-        }
-        let pulse = onsets
-            .get(beat)
-            .filter(|(t0, _)| *t0 <= t)
-            .map_or(0.0, |&(t0, rr)| generic_pressure(t - t0, rr));
+        let pulse = heart
+            .at(t)
+            .map_or(0.0, |(t0, rr)| generic_pressure(t - t0, rr));
         let frame = TactileFrame {
             t_s: t,
             seq: i,

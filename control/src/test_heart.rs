@@ -19,3 +19,27 @@ pub fn beats(t0: f64, span_s: f64, rng: &mut Normals) -> Vec<(f64, f64)> {
     }
     out
 }
+
+/// The beat under way at each time of a run of rising times, from [`beats`]' onsets.
+pub struct BeatCursor {
+    onsets: Vec<(f64, f64)>,
+    beat: usize,
+}
+
+impl BeatCursor {
+    pub fn new(onsets: Vec<(f64, f64)>) -> Self {
+        Self { onsets, beat: 0 }
+    }
+
+    /// The onset and interval of the beat under way at `t` (none before the first, or with
+    /// no beats); `t` must not go back.
+    pub fn at(&mut self, t: f64) -> Option<(f64, f64)> {
+        while self.beat + 1 < self.onsets.len() && self.onsets[self.beat + 1].0 <= t {
+            self.beat += 1;
+        }
+        self.onsets
+            .get(self.beat)
+            .copied()
+            .filter(|(t0, _)| *t0 <= t)
+    }
+}

@@ -370,6 +370,7 @@ fn summarize(
         .map(|(lo, hi)| [*lo, *hi]);
     let located = pooled.points > 0;
     let mean = |f: &dyn Fn(&TrialResult) -> f64| trials.iter().map(f).sum::<f64>() / n;
+    let duration_s_mean = mean(&|t| t.duration_s);
     Row {
         scene: source.name().to_string(),
         family: matches!(source, Source::Family { .. }).then(|| source.name().to_string()),
@@ -383,7 +384,7 @@ fn summarize(
         lateral_error_max_m: located.then_some(pooled.max),
         false_points: trials.iter().map(|t| t.false_points).sum(),
         beats_mean: mean(&|t| t.beats as f64),
-        duration_s_mean: mean(&|t| t.duration_s),
+        duration_s_mean,
         backtracks_mean: mean(&|t| f64::from(t.backtracks)),
         tracker_name: spec.name.clone(),
         speed_m_s: speed,
@@ -391,15 +392,12 @@ fn summarize(
         points: pooled.points,
         error_sd_trial_median_m: median_sd,
         error_sd_trial_range_m: sd_range,
-        duration_s_sd: {
-            let m = mean(&|t| t.duration_s);
-            (trials
-                .iter()
-                .map(|t| (t.duration_s - m).powi(2))
-                .sum::<f64>()
-                / n)
-                .sqrt()
-        },
+        duration_s_sd: (trials
+            .iter()
+            .map(|t| (t.duration_s - duration_s_mean).powi(2))
+            .sum::<f64>()
+            / n)
+            .sqrt(),
         end_reasons: trials.iter().map(|t| t.end_reason.clone()).collect(),
         wall_s_mean: mean(&|t| t.wall_s),
     }

@@ -4,7 +4,7 @@
 use super::*;
 use crate::signal::detection_bound::{self, glrt_threshold, per_beat, snr_needed, waveform_energy};
 use crate::signal::kernel_fit::element_kernel;
-use crate::test_heart::beats;
+use crate::test_heart::{BeatCursor, beats};
 use crate::test_normals::Normals;
 
 const SIGMA: f64 = 0.012;
@@ -70,17 +70,13 @@ fn run(
     let s = kernel_at(scene.x0_m);
     let peak = s.iter().copied().fold(0.0, f64::max);
     let lump = kernel_at(0.002);
-    let mut beat = 0;
+    let mut heart = BeatCursor::new(onsets);
     let mut progress = Vec::new();
     for i in 0.. {
         let t = i as f64 / FS;
-        while beat + 1 < onsets.len() && onsets[beat + 1].0 <= t {
-            beat += 1;
-        }
-        let pulse = onsets
-            .get(beat)
-            .filter(|(t0, _)| *t0 <= t)
-            .map_or(0.0, |&(t0, rr)| generic_pressure(t - t0, rr));
+        let pulse = heart
+            .at(t)
+            .map_or(0.0, |(t0, rr)| generic_pressure(t - t0, rr));
         let drift =
             scene.drift_n_per_s * t + scene.swell_n * (std::f64::consts::TAU * t / 40.0).sin();
         let frame = TactileFrame {
