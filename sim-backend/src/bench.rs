@@ -324,6 +324,15 @@ impl Bench {
         Ok(())
     }
 
+    /// The joint torques last commanded (zero for the ideal arm or while disabled): what a
+    /// driver knows it asked of the motors.
+    pub fn commanded_torque_nm(&self) -> control::types::Joints {
+        match &self.arm {
+            Arm::Dynamic(a) if a.enabled => a.command.torque_nm,
+            _ => [0.0; 3],
+        }
+    }
+
     /// Put the ideal robot's sensor somewhere (no effect on the dynamic arm).
     pub fn place_ideal(&mut self, sensor: SurfacePoint) {
         if let Arm::Ideal { sensor: s } = &mut self.arm {
@@ -416,6 +425,20 @@ impl Bench {
     }
 
     /// Where the sensor truly is.
+    /// The true rod's mechanics (None: an ideal arm, or a rigid rod or pivot).
+    pub fn rod_mechanics(&self) -> Option<control::kinematics::RodMechanics> {
+        let Arm::Dynamic(a) = &self.arm else {
+            return None;
+        };
+        Some(control::kinematics::RodMechanics {
+            bending_stiffness_nm2: a.rod.bending_stiffness_nm2?,
+            pivot_stiffness_n_per_m: a.rod.pivot_stiffness_n_per_m?,
+            rod_mass_kg: a.rod.rod_mass_kg,
+            tip_mass_kg: a.rod.mass_kg,
+            tip_mass_height_m: a.rod.mass_height_m,
+        })
+    }
+
     pub fn truth(&mut self) -> SimTruth {
         let pulse_pa = self.pulse.pressure_pa(self.t_s);
         match &self.arm {

@@ -323,3 +323,57 @@ fn a_flickering_arrival_still_marks() {
     // Bounded in simulated time, not wall time: two placements and two marks.
     assert!(seeds[1] < 60.0, "second mark at {} s", seeds[1]);
 }
+
+/// The rod's deflection read from the arm's torques (control's `kinematics::rod_load`)
+/// against the simulator's own rod, which shares only the beam formula: after the robot
+/// places the sensor, friction holds the tip millimetres from where a straight rod would put
+/// it, and the joint torques beyond the arm's gravity say where. Measured on the
+/// seed's rig; nothing in the estimate is fitted. What is left is mostly the joints' Coulomb
+/// friction, which holds part of the load the motors would otherwise show.
+#[test]
+fn the_arm_torques_say_where_the_compliant_rod_left_the_sensor() {
+    use control::pd::gravity::{GravityModel, PhantomGravity};
+    for name in ["seed-arc-145.ron", "seed-arc-220.ron", "seed-s-curve.ron"] {
+        let s = scene(name);
+        let config = sim_config();
+        let mut trial = Lockstep::new(&s, &config, "beatslide", 1).expect("builds");
+        trial.bench.set_enabled(true);
+        trial.pd.reset();
+        trial.hold_here().expect("holds");
+        for (i, p) in s.placements.iter().enumerate() {
+            assert!(trial.place(i, *p, s.placed_by).is_ok(), "{name}: placed");
+            for _ in 0..300 {
+                assert!(trial.servo().is_ok());
+            }
+            let mech = trial.bench.rod_mechanics().expect("a compliant rod");
+            let q = trial.bench.read_joints().position_rad;
+            let tau = trial.bench.commanded_torque_nm();
+            let g = PhantomGravity::new(&config.robot.link_masses).torque_nm(&q);
+            let rod_tau = [-(tau[0] - g[0]), -(tau[1] - g[1]), -(tau[2] - g[2])];
+            let (loaded, load) = trial
+                .model
+                .sensor_under_load(&q, &rod_tau, &mech, config.robot.link_masses.gravity_m_s2)
+                .expect("a pose in range");
+            let rigid = trial.model.surface_point(&q).expect("a pose in range");
+            let truth = trial.bench.truth();
+            let off = |x: f64, z: f64| (x - truth.sensor.x_m).hypot(z - truth.sensor.z_m);
+            let rigid_off = off(rigid.x_m, rigid.z_m);
+            let loaded_off = off(loaded.x, loaded.z);
+            assert!(rigid_off > 2e-3, "{name} placement {i}: rigid {rigid_off}");
+            assert!(
+                loaded_off < 0.2 * rigid_off && loaded_off < 1e-3,
+                "{name} placement {i}: rigid {rigid_off} m off, loaded {loaded_off} m off"
+            );
+            let friction = (load.x - truth.friction_n[0]).hypot(load.z - truth.friction_n[1]);
+            assert!(
+                friction < 0.06,
+                "{name} placement {i}: friction read {friction} N off"
+            );
+            assert!(
+                (load.y - truth.normal_n).abs() < 0.2,
+                "{load:?} vs {}",
+                truth.normal_n
+            );
+        }
+    }
+}

@@ -11,6 +11,7 @@ use nalgebra::{Matrix3, Point3, Vector3};
 
 use super::error::KinematicsError;
 use super::params::{JointLimits, PhantomGeometry, PivotGeometry};
+use super::rod_load::{RodAt, RodMechanics};
 use super::{phantom, pivot};
 use crate::frames::{SurfacePoint, Tip, TissuePlacement};
 use crate::types::{JointSetpoint, Joints};
@@ -209,6 +210,48 @@ impl ArmModel {
             });
         }
         Ok(setpoint)
+    }
+
+    /// The rod's pose for joint angles, for [`RodMechanics`] (robot base frame).
+    pub fn rod_at(&self, q: &Joints) -> Result<RodAt, KinematicsError> {
+        let pose = pivot::rod_pose(&self.pivot, &phantom::forward(&self.phantom, q)?)?;
+        Ok(RodAt {
+            axis: pose.axis.into_inner(),
+            gimbal_to_pivot_m: self.pivot.rod_length_m - pose.depth_m,
+            length_m: self.pivot.rod_length_m,
+        })
+    }
+
+    /// Where the sensor centre truly is (tissue frame) when the rod pushes on the arm with
+    /// joint torques `rod_torque_nm` (the motors' torque less the arm's own gravity, negated,
+    /// at rest), for a rod of `mechanics`: the rigid map plus the rod's deflection
+    /// ([`super::rod_load`]). Also returns the tip load it read, tissue frame, N.
+    pub fn sensor_under_load(
+        &self,
+        q: &Joints,
+        rod_torque_nm: &Joints,
+        mechanics: &RodMechanics,
+        gravity_m_s2: f64,
+    ) -> Result<(Point3<f64>, Vector3<f64>), KinematicsError> {
+        let rigid = self.sensor_from_joints(q)?;
+        let rod = self.rod_at(q)?;
+        let j = phantom::jacobian(&self.phantom, q)?;
+        let tau = Vector3::new(rod_torque_nm[0], rod_torque_nm[1], rod_torque_nm[2]);
+        let f_gimbal = j
+            .transpose()
+            .lu()
+            .solve(&tau)
+            .ok_or(KinematicsError::Singular {
+                what: "gimbal Jacobian",
+            })?;
+        let load = mechanics
+            .tip_load_n(&rod, &f_gimbal, gravity_m_s2)
+            .map_err(|_| KinematicsError::NonFinite { what: "tip load" })?;
+        let deflection = mechanics.tip_deflection_m(&rod, &load, gravity_m_s2);
+        Ok((
+            rigid + self.base_to_tissue * deflection,
+            self.base_to_tissue * load,
+        ))
     }
 
     /// Insertion depth of the rod tip below the pivot for joint angles (no range guard).

@@ -11,6 +11,7 @@ mod error;
 pub mod params;
 pub mod phantom;
 pub mod pivot;
+pub mod rod_load;
 
 pub use arm::ArmModel;
 pub use error::KinematicsError;
@@ -18,3 +19,4 @@ pub use params::{
     DEFAULT_SENSOR_OFFSET_M, DEFAULT_SURFACE_DEPTH_M, JointLimits, PhantomGeometry, PivotGeometry,
     tissue_under_pivot,
 };
+pub use rod_load::{RodAt, RodLoadError, RodMechanics};
