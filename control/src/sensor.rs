@@ -19,6 +19,64 @@ pub struct ArrayGeometry {
     pub noise_sd_n: f64,
     /// Frame rate, Hz.
     pub sample_rate_hz: f64,
+    /// Elements not to trust (dead, stuck or saturated, as the tactile calibration marks
+    /// them): localization leaves them out instead of reading them as no pulse. A list of
+    /// element indices in the config.
+    pub skip_elements: ElementMask,
+}
+
+/// Fewest elements localization needs: the kernel has four parameters, and two more keep
+/// its fit overdetermined.
+pub const MIN_TRUSTED_ELEMENTS: usize = 6;
+
+/// A set of element indices (below [`ELEMENTS`]), written as a list of indices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(try_from = "Vec<usize>", into = "Vec<usize>")]
+pub struct ElementMask(u16);
+
+impl ElementMask {
+    pub const NONE: Self = Self(0);
+
+    pub fn contains(&self, element: usize) -> bool {
+        element < ELEMENTS && self.0 & (1 << element) != 0
+    }
+
+    pub fn len(&self) -> usize {
+        self.0.count_ones() as usize
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.0 == 0
+    }
+
+    /// 1 for a trusted element, 0 for a skipped one.
+    pub fn weights(&self) -> [f64; ELEMENTS] {
+        std::array::from_fn(|e| if self.contains(e) { 0.0 } else { 1.0 })
+    }
+}
+
+impl TryFrom<Vec<usize>> for ElementMask {
+    type Error = String;
+
+    fn try_from(elements: Vec<usize>) -> Result<Self, String> {
+        let mut bits = 0u16;
+        for e in elements {
+            if e >= ELEMENTS {
+                return Err(format!(
+                    "element {e} does not exist (the array has elements 0 to {})",
+                    ELEMENTS - 1
+                ));
+            }
+            bits |= 1 << e;
+        }
+        Ok(Self(bits))
+    }
+}
+
+impl From<ElementMask> for Vec<usize> {
+    fn from(m: ElementMask) -> Self {
+        (0..ELEMENTS).filter(|&e| m.contains(e)).collect()
+    }
 }
 
 impl Default for ArrayGeometry {
@@ -28,6 +86,7 @@ impl Default for ArrayGeometry {
             direction: 1.0,
             noise_sd_n: 0.012,
             sample_rate_hz: 100.0,
+            skip_elements: ElementMask::NONE,
         }
     }
 }
@@ -69,6 +128,13 @@ impl ArrayGeometry {
                 self.direction
             ));
         }
+        let trusted = ELEMENTS - self.skip_elements.len();
+        if trusted < MIN_TRUSTED_ELEMENTS {
+            return Err(format!(
+                "skip_elements leaves {trusted} elements; localization needs at least \
+                 {MIN_TRUSTED_ELEMENTS}"
+            ));
+        }
         Ok(())
     }
 
@@ -81,6 +147,32 @@ impl ArrayGeometry {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn skipped_elements_are_a_list_of_indices_that_exist() {
+        let m = ElementMask::try_from(vec![3, 9, 3]).unwrap();
+        assert!(m.contains(3) && m.contains(9) && !m.contains(4) && !m.contains(10));
+        assert_eq!(m.len(), 2);
+        assert_eq!(Vec::<usize>::from(m), vec![3, 9]);
+        let e = ElementMask::try_from(vec![10]).unwrap_err();
+        assert!(e.contains("element 10") && e.contains("0 to 9"), "{e}");
+        assert_eq!(m.weights().iter().sum::<f64>(), 8.0);
+        // Five skipped leave five: too few to localize.
+        let g = ArrayGeometry {
+            skip_elements: ElementMask::try_from(vec![0, 1, 2, 3, 4]).unwrap(),
+            ..Default::default()
+        };
+        let e = g.check().unwrap_err();
+        assert!(
+            e.contains("skip_elements") && e.contains("5 elements"),
+            "{e}"
+        );
+        let g = ArrayGeometry {
+            skip_elements: ElementMask::try_from(vec![0, 1, 2, 3]).unwrap(),
+            ..Default::default()
+        };
+        assert!(g.check().is_ok());
+    }
 
     #[test]
     fn check_refuses_what_no_tracker_can_use() {

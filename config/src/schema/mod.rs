@@ -103,5 +103,18 @@ impl Validate for control::sensor::ArrayGeometry {
         );
         v.positive("noise_sd_n", self.noise_sd_n);
         v.positive("sample_rate_hz", self.sample_rate_hz);
+        let trusted = control::types::ELEMENTS - self.skip_elements.len();
+        v.check(
+            trusted >= control::sensor::MIN_TRUSTED_ELEMENTS,
+            "skip_elements",
+            format!(
+                "leaves {trusted} elements; localization needs at least {}",
+                control::sensor::MIN_TRUSTED_ELEMENTS
+            ),
+        );
     }
 }
+
+#[cfg(test)]
+#[path = "sensor_tests.rs"]
+mod sensor_tests;

@@ -24,7 +24,7 @@
 //! The same fit serves other symmetric kernels (the width absorbs their scale): it is a
 //! matched template, not a claim that the tissue is a half-space.
 
-use crate::sensor::ArrayGeometry;
+use crate::sensor::{ArrayGeometry, MIN_TRUSTED_ELEMENTS};
 use crate::types::ELEMENTS;
 
 /// Kernel widths searched, m (depths of 1.5–16 mm, or shallower arteries crossing obliquely).
@@ -54,8 +54,8 @@ pub struct KernelFit {
     pub baseline: f64,
     /// Kernel width w, m.
     pub width_m: f64,
-    /// Sum of squared residuals over the amplitudes' variance (χ² with `ELEMENTS − 4` degrees
-    /// of freedom for a good fit).
+    /// Sum of squared residuals over the amplitudes' variance (χ² with the trusted elements
+    /// less 4 degrees of freedom for a good fit).
     pub chi2: f64,
     /// The best position lies at the end of the searched range: the artery is at or beyond
     /// the array's edge and `offset_z_m` is only a bound.
@@ -82,6 +82,8 @@ pub enum KernelFitError {
     BadNoise(f64),
     #[error("no positive kernel fits the amplitudes")]
     NoPositivePeak,
+    #[error("only {0} trusted elements; the fit needs {MIN_TRUSTED_ELEMENTS}")]
+    TooFewElements(usize),
 }
 
 /// The element-integrated kernel at offset `u` (m) for width `w` and element width `b`,
@@ -108,8 +110,16 @@ pub fn fit_kernel(
     let pitch = geometry.pitch_m;
     let middle = (ELEMENTS as f64 - 1.0) / 2.0;
     let xi: [f64; ELEMENTS] = std::array::from_fn(|e| (e as f64 - middle) * pitch);
-    let mean_a = amplitudes.iter().sum::<f64>() / ELEMENTS as f64;
-    let total_ss: f64 = amplitudes.iter().map(|a| (a - mean_a).powi(2)).sum();
+    // Skipped elements weigh nothing: the fit sees only the trusted ones.
+    let wt = geometry.skip_elements.weights();
+    let n = wt.iter().sum::<f64>();
+    if n < MIN_TRUSTED_ELEMENTS as f64 {
+        return Err(KernelFitError::TooFewElements(n as usize));
+    }
+    let mean_a = (0..ELEMENTS).map(|e| wt[e] * amplitudes[e]).sum::<f64>() / n;
+    let total_ss: f64 = (0..ELEMENTS)
+        .map(|e| wt[e] * (amplitudes[e] - mean_a).powi(2))
+        .sum();
     // No variation across the array (far below the noise): nothing to place.
     if total_ss <= 1e-20 * noise * noise {
         return Err(KernelFitError::NoPositivePeak);
@@ -122,7 +132,7 @@ pub fn fit_kernel(
     let mut best: Option<(f64, usize, usize)> = None; // (sse, position index, width index)
     for (wi, &w) in WIDTHS_M.iter().enumerate() {
         for i in 0..=steps {
-            if let Some((sse, _, _)) = profile(amplitudes, &xi, position(i), w, pitch, mean_a)
+            if let Some((sse, _, _)) = profile(amplitudes, &wt, &xi, position(i), w, pitch, mean_a)
                 && best.is_none_or(|(b, _, _)| sse < b)
             {
                 best = Some((sse, i, wi));
@@ -131,14 +141,14 @@ pub fn fit_kernel(
     }
     let (_, i0, wi) = best.ok_or(KernelFitError::NoPositivePeak)?;
     let x0 = position(i0);
-    let (_, alpha0, beta0) = profile(amplitudes, &xi, x0, WIDTHS_M[wi], pitch, mean_a)
+    let (_, alpha0, beta0) = profile(amplitudes, &wt, &xi, x0, WIDTHS_M[wi], pitch, mean_a)
         .ok_or(KernelFitError::NoPositivePeak)?;
     let limit = half_range * pitch;
     let start = [x0, WIDTHS_M[wi].ln(), alpha0, beta0];
-    let (theta, information) = refine(amplitudes, &xi, pitch, start, limit);
+    let (theta, information) = refine(amplitudes, &wt, &xi, pitch, start, limit);
     let variance = noise * noise;
     let sse: f64 = (0..ELEMENTS)
-        .map(|e| (amplitudes[e] - model(&theta, xi[e], pitch)).powi(2))
+        .map(|e| wt[e] * (amplitudes[e] - model(&theta, xi[e], pitch)).powi(2))
         .sum();
     let at_edge = theta[0].abs() >= limit - 1e-9;
     let covariance = information.try_inverse();
@@ -172,6 +182,7 @@ fn model(th: &Params, xi: f64, pitch: f64) -> f64 {
 /// the searched range and the position within `limit`. Returns the parameters and `JᵀJ`.
 fn refine(
     a: &[f64; ELEMENTS],
+    wt: &[f64; ELEMENTS],
     xi: &[f64; ELEMENTS],
     pitch: f64,
     start: Params,
@@ -180,7 +191,7 @@ fn refine(
     let (ln_w_lo, ln_w_hi) = (WIDTHS_M[0].ln(), WIDTHS_M[WIDTHS_M.len() - 1].ln());
     let sse = |th: &Params| -> f64 {
         (0..ELEMENTS)
-            .map(|e| (a[e] - model(th, xi[e], pitch)).powi(2))
+            .map(|e| wt[e] * (a[e] - model(th, xi[e], pitch)).powi(2))
             .sum()
     };
     let jacobian = |th: &Params| -> (nalgebra::Matrix4<f64>, nalgebra::Vector4<f64>) {
@@ -198,8 +209,8 @@ fn refine(
             row[2] = element_kernel(xi[e] - th[0], th[1].exp(), pitch);
             row[3] = 1.0;
             let r = a[e] - model(th, xi[e], pitch);
-            jtj += row * row.transpose();
-            jtr += row * r;
+            jtj += row * row.transpose() * wt[e];
+            jtr += row * (r * wt[e]);
         }
         (jtj, jtr)
     };
@@ -247,6 +258,7 @@ fn refine(
 /// unless α is positive.
 fn profile(
     a: &[f64; ELEMENTS],
+    wt: &[f64; ELEMENTS],
     xi: &[f64; ELEMENTS],
     x0: f64,
     w: f64,
@@ -254,13 +266,14 @@ fn profile(
     mean_a: f64,
 ) -> Option<(f64, f64, f64)> {
     let k: [f64; ELEMENTS] = std::array::from_fn(|e| element_kernel(xi[e] - x0, w, pitch));
-    let mean_k = k.iter().sum::<f64>() / ELEMENTS as f64;
+    let n = wt.iter().sum::<f64>();
+    let mean_k = (0..ELEMENTS).map(|e| wt[e] * k[e]).sum::<f64>() / n;
     let (mut skk, mut ska, mut saa) = (0.0, 0.0, 0.0);
     for e in 0..ELEMENTS {
         let (dk, da) = (k[e] - mean_k, a[e] - mean_a);
-        skk += dk * dk;
-        ska += dk * da;
-        saa += da * da;
+        skk += wt[e] * dk * dk;
+        ska += wt[e] * dk * da;
+        saa += wt[e] * da * da;
     }
     if skk <= 0.0 {
         return None;
@@ -276,6 +289,7 @@ fn profile(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sensor::ElementMask;
 
     fn geometry() -> ArrayGeometry {
         ArrayGeometry::default()
@@ -316,6 +330,43 @@ mod tests {
                 assert!((f.element - element).abs() < 0.03);
             }
         }
+    }
+
+    #[test]
+    fn a_skipped_element_is_left_out_of_the_fit() {
+        // Element 5 is dead (reads nothing) right beside the artery at element 4.25.
+        let x0 = geometry().offset_z_m(4.25);
+        let mut a = synth(x0, 0.005, 0.06, 0.0);
+        a[5] = 0.0;
+        let trusting = fit_kernel(&a, 0.001, &geometry()).expect("fits");
+        let skipping = ArrayGeometry {
+            skip_elements: ElementMask::try_from(vec![5]).unwrap(),
+            ..geometry()
+        };
+        let f = fit_kernel(&a, 0.001, &skipping).expect("fits");
+        assert!((f.offset_z_m - x0).abs() < 0.05e-3, "{f:?}");
+        assert!((f.amplitude - 0.06).abs() < 0.004, "{f:?}");
+        // Trusted, the dead element drags the artery away from itself and spoils the fit.
+        assert!(trusting.offset_z_m - x0 < -0.2e-3, "{trusting:?}");
+        assert!(
+            trusting.chi2 > 100.0 * f.chi2.max(1e-3),
+            "{trusting:?} vs {f:?}"
+        );
+        // Whatever a skipped element reads does not matter.
+        for junk in [-5.0, 0.3, 1e6] {
+            a[5] = junk;
+            let g = fit_kernel(&a, 0.001, &skipping).expect("fits");
+            assert!((g.offset_z_m - f.offset_z_m).abs() < 1e-9, "{junk}: {g:?}");
+        }
+        // Five trusted elements are too few for a four-parameter fit to be checked.
+        let five = ArrayGeometry {
+            skip_elements: ElementMask::try_from(vec![0, 1, 2, 3, 9]).unwrap(),
+            ..geometry()
+        };
+        assert_eq!(
+            fit_kernel(&a, 0.001, &five),
+            Err(KernelFitError::TooFewElements(5))
+        );
     }
 
     #[test]

@@ -958,7 +958,15 @@ impl Tracker for BeatSlide {
                 .map_or(self.params.lag_prior_m, PathFilter::lag_m);
             let lag_dir = self.drag.update(input.sensor, lag);
             if self.history.newest_t_s().is_none_or(|last| t_s > last) {
-                self.history.push(*input.frame, input.sensor, lag_dir);
+                // Skipped elements read as nothing: no search or fit sees a stuck or
+                // saturated element's signal, and the kernel fit weighs them not at all.
+                let mut frame = *input.frame;
+                for (e, f) in frame.force_n.iter_mut().enumerate() {
+                    if self.geometry.skip_elements.contains(e) {
+                        *f = 0.0;
+                    }
+                }
+                self.history.push(frame, input.sensor, lag_dir);
             } else {
                 self.rejected_frames += 1;
             }
