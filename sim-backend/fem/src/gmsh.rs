@@ -79,6 +79,11 @@ pub fn read_mesh(path: &Path, want: &Expected) -> Result<Mesh, GmshError> {
         file: file.clone(),
         problem,
     };
+    // Only a regular file: a FIFO would block the open, /dev/zero never end.
+    let meta = std::fs::metadata(path).map_err(|e| fail(format!("cannot open: {e}")))?;
+    if !meta.is_file() {
+        return Err(fail("not a regular file".into()));
+    }
     let f = std::fs::File::open(path).map_err(|e| fail(format!("cannot open: {e}")))?;
     let mut bytes = Vec::new();
     f.take(MAX_FILE_BYTES + 1)
@@ -140,5 +145,47 @@ fn parser_error(bytes: &[u8], binary: bool, e: &mshio::MshParserError<&[u8]>) ->
         format!("{place}: {problem}")
     } else {
         format!("{place}: in {}: {problem}", path.join(", in "))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(layers: &str) -> ModelFile {
+        let text = format!(
+            r#"FemModel(version: 1, name: "m", analysis: PlaneStress,
+            block: (width_m: 0.08, height_m: 0.03), tissue: (e_pa: 15e3, nu: 0.45),
+            feature: (centre_x_m: 0.04, centre_depth_m: 0.015, lumen_radius_m: 0.004,
+                layers: [{layers}]),
+            load: Platen(indent_m: 0.001), bottom: Free)"#
+        );
+        config::load_str("m.ron", &text).unwrap()
+    }
+
+    #[test]
+    fn what_a_model_expects() {
+        let wall = r#"(name: "wall", thickness_m: 0.001, material: (e_pa: 3e5, nu: 0.49))"#;
+        let e = Expected::for_model(&model(wall)).unwrap();
+        assert_eq!(e.regions, ["tissue", "wall"]);
+        assert!(e.need_lumen && !e.need_bottom);
+        let twice = format!("{wall}, {}", wall.replace("0.001", "0.0005"));
+        let err = Expected::for_model(&model(&twice)).unwrap_err();
+        assert!(err.contains("\"wall\" twice"), "{err}");
+        let tissue = wall.replace("\"wall\"", "\"tissue\"");
+        assert!(Expected::for_model(&model(&tissue)).is_err());
+    }
+
+    #[test]
+    fn only_regular_files_are_read() {
+        let e = read_mesh(
+            Path::new("/dev/zero"),
+            &Expected::for_model(&model(
+                r#"(name: "wall", thickness_m: 0.001, material: (e_pa: 3e5, nu: 0.49))"#,
+            ))
+            .unwrap(),
+        )
+        .unwrap_err();
+        assert_eq!(e.to_string(), "/dev/zero: not a regular file");
     }
 }
