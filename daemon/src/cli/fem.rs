@@ -38,7 +38,7 @@ pub struct Args {
     /// Solve the model on this Gmsh mesh (MSH 4.1, ASCII or binary; physical groups named
     /// for the model's materials and "top", "bottom", "lumen") instead of the built-in
     /// mesher's or the model's `mesh_file` (docs/fem.md, Gmsh meshes).
-    #[arg(long, value_name = "FILE.msh", requires = "model")]
+    #[arg(long, value_name = "FILE.msh", conflicts_with_all = ["study", "kernel_table"])]
     pub mesh: Option<PathBuf>,
     /// Print one JSON array of records (model, t_s, x_m, von_mises_pa, peak_pa, x_peak_m,
     /// von_mises_x0_pa, dofs, wall_s) instead of the text summary.
