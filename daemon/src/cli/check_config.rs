@@ -5,7 +5,7 @@
 //! file without one is tried as each kind. Beyond parsing and validation: a simulator
 //! configuration's scene must exist and pass the scene checks; a scene's artery path must be
 //! buildable and, for an FEM pressure kernel, its mesh too (meshed, not solved); a FEM
-//! model's mesh must be buildable.
+//! model's mesh must be buildable (its Gmsh file, if it names one, read and checked).
 
 use crate::cli::stdout::outln;
 
@@ -136,11 +136,19 @@ fn check_as(kind: Kind, path: &Path, source: &str) -> Result<String, ConfigError
         }
         Kind::FemModel => {
             let loaded = load_file::<ModelFile>(path)?;
-            pulsetrack_fem::run::build_mesh(&loaded.value, 0).map_err(|e| {
+            let mut model = loaded.value.clone();
+            model.resolve_mesh_file(loaded.dir.as_deref());
+            // A Gmsh mesh is read and checked against the model; else the block is meshed.
+            let field = if model.mesh_file.is_some() {
+                "mesh_file"
+            } else {
+                "block"
+            };
+            pulsetrack_fem::run::build_mesh(&model, 0).map_err(|e| {
                 located(
                     &origin,
                     source,
-                    "block",
+                    field,
                     format!("the model cannot be meshed: {e}"),
                 )
             })?;

@@ -35,6 +35,11 @@ pub struct Args {
     /// Run one model described in RON (see config/fem/).
     #[arg(long, value_name = "FILE")]
     pub model: Option<PathBuf>,
+    /// Solve the model on this Gmsh mesh (MSH 4.1, ASCII or binary; physical groups named
+    /// for the model's materials and "top", "bottom", "lumen") instead of the built-in
+    /// mesher's or the model's `mesh_file` (docs/fem.md, Gmsh meshes).
+    #[arg(long, value_name = "FILE.msh", conflicts_with_all = ["study", "kernel_table"])]
+    pub mesh: Option<PathBuf>,
     /// Print one JSON array of records (model, t_s, x_m, von_mises_pa, peak_pa, x_peak_m,
     /// von_mises_x0_pa, dofs, wall_s) instead of the text summary.
     #[arg(long)]
@@ -72,6 +77,10 @@ fn execute(args: &Args) -> Result<(), String> {
     if let Some(path) = &args.model {
         let loaded = config::load_file::<ModelFile>(path).map_err(|e| e.to_string())?;
         let mut model = loaded.value;
+        model.resolve_mesh_file(loaded.dir.as_deref());
+        if let Some(mesh) = &args.mesh {
+            model.mesh_file = Some(mesh.clone());
+        }
         if args.finite_strain && model.kinematics == Kinematics::Linear {
             model.kinematics = Kinematics::FiniteStrain { steps: 8 };
         }

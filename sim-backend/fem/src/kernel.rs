@@ -139,6 +139,7 @@ impl KernelParams {
                 growth: 1.15,
                 refine: self.refine,
             },
+            mesh_file: None,
         }
     }
 }

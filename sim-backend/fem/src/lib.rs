@@ -5,6 +5,7 @@
 //! treatment against locking, a mesher for a rectangle with a circular feature of concentric
 //! layers, prescribed displacements, lumen pressure, a rigid indenter in frictionless contact,
 //! an optional finite-strain neo-Hookean solve, and von Mises recovered at the top-edge nodes.
+//! A model can also be solved on a user's Gmsh mesh (`gmsh`).
 //! It also produces the surface pressure kernel the simulator can use instead of the analytic
 //! one: the simulator (`pulsetrack-sim`) and the CLI depend on this crate, never the other
 //! way. See docs/fem.md.
@@ -16,6 +17,11 @@ pub mod contact;
 pub mod element;
 pub mod finger_penalty;
 pub mod finite;
+pub mod gmsh;
+pub mod gmsh_build;
+pub mod gmsh_check;
+pub mod gmsh_guard;
+pub mod gmsh_names;
 pub mod kernel;
 pub mod linear;
 pub mod llt;

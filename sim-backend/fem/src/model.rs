@@ -17,6 +17,8 @@
 //! )
 //! ```
 
+use std::path::{Path, PathBuf};
+
 use serde::{Deserialize, Serialize};
 
 use config::{Validate, Validator};
@@ -51,6 +53,11 @@ pub struct ModelFile {
     pub times_s: Vec<f64>,
     #[serde(default)]
     pub mesh: MeshSpec,
+    /// A Gmsh MSH 4.1 mesh to solve on instead of the built-in mesher's (docs/fem.md,
+    /// "Gmsh meshes"); a relative path is taken from the model file's directory
+    /// ([`ModelFile::resolve_mesh_file`]).
+    #[serde(default)]
+    pub mesh_file: Option<PathBuf>,
 }
 
 fn default_times() -> Vec<f64> {
@@ -245,6 +252,16 @@ impl ModelFile {
     pub fn pressure_at(&self, t_s: f64) -> f64 {
         self.lumen.map_or(0.0, |l| l.at(t_s))
     }
+
+    /// Take a relative `mesh_file` from `dir`, the model file's directory
+    /// (`config::Loaded::dir`).
+    pub fn resolve_mesh_file(&mut self, dir: Option<&Path>) {
+        if let (Some(f), Some(dir)) = (&self.mesh_file, dir)
+            && f.is_relative()
+        {
+            self.mesh_file = Some(dir.join(f));
+        }
+    }
 }
 
 fn validate_material(v: &mut Validator, field: &str, m: &Material) {
@@ -379,6 +396,19 @@ impl Validate for ModelFile {
             "needs at least one time",
         );
         v.all_finite("times_s", &self.times_s);
+        if let Some(f) = &self.mesh_file {
+            v.check(
+                !f.as_os_str().is_empty(),
+                "mesh_file",
+                "must name a .msh file",
+            );
+            v.check(
+                self.mesh == MeshSpec::default(),
+                "mesh",
+                "sets the built-in mesher's density, which a Gmsh mesh (mesh_file) does not \
+                 use: remove one of them",
+            );
+        }
         v.at("mesh", |v| {
             v.positive("near_size_m", self.mesh.near_size_m);
             v.positive("far_size_m", self.mesh.far_size_m);
@@ -403,6 +433,7 @@ impl Validate for ModelFile {
         // Once every size is sane: a mesh beyond the mesher's node limit is refused here,
         // when the file is read, not after minutes of meshing.
         if v.problem_count() == problems_before
+            && self.mesh_file.is_none()
             && let Err(e) = check_size(
                 self.block.width_m,
                 self.block.height_m,

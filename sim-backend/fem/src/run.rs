@@ -8,6 +8,7 @@ use serde::Serialize;
 use super::boundary::supports;
 use super::contact::{Indenter, solve_contact};
 use super::finite;
+use super::gmsh::{Expected, GmshError, read_mesh};
 use super::linear::{LinearModel, Timings};
 use super::material::von_mises;
 use super::mesh::Mesh;
@@ -22,6 +23,8 @@ pub enum FemError {
     Mesh { model: String, source: MeshError },
     #[error("model {model}: solve: {source}")]
     Solve { model: String, source: SolveError },
+    #[error("model {model}: Gmsh mesh {source}")]
+    Gmsh { model: String, source: GmshError },
 }
 
 /// The top edge at one time.
@@ -82,7 +85,28 @@ impl ModelRun {
     }
 }
 
+/// The model's mesh: its Gmsh file if it names one (which cannot be refined), else the
+/// built-in mesher's at its density plus `extra_refine` levels.
 pub fn build_mesh(model: &ModelFile, extra_refine: u32) -> Result<Mesh, FemError> {
+    if let Some(path) = &model.mesh_file {
+        let wrap = |problem: String| FemError::Gmsh {
+            model: model.name.clone(),
+            source: GmshError {
+                file: path.display().to_string(),
+                problem,
+            },
+        };
+        if extra_refine > 0 {
+            return Err(wrap(
+                "a Gmsh mesh is solved as it is: refine it in Gmsh, not with --refine".into(),
+            ));
+        }
+        let want = Expected::for_model(model).map_err(wrap)?;
+        return read_mesh(path, &want).map_err(|source| FemError::Gmsh {
+            model: model.name.clone(),
+            source,
+        });
+    }
     let feature = model.feature();
     mesh_block(
         model.block.width_m,
