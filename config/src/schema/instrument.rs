@@ -74,13 +74,7 @@ mod tests {
     use crate::shipped::SIM_CONFIG;
     use crate::{Config, load_str};
 
-    fn with_section(section: &str) -> String {
-        let (_, text) = SIM_CONFIG;
-        let at = text
-            .rfind(')')
-            .expect("the shipped config ends with a parenthesis");
-        format!("{}    {section}\n)", &text[..at])
-    }
+    use crate::schema::shipped_with as with_section;
 
     #[test]
     fn absent_is_none_and_old_configs_load() {

@@ -118,3 +118,13 @@ impl Validate for control::sensor::ArrayGeometry {
 #[cfg(test)]
 #[path = "sensor_tests.rs"]
 mod sensor_tests;
+
+/// The shipped simulator config with one more top-level `section` (for tests of a section).
+#[cfg(test)]
+pub(crate) fn shipped_with(section: &str) -> String {
+    let (_, text) = crate::shipped::SIM_CONFIG;
+    let at = text
+        .rfind(')')
+        .expect("the shipped config ends with a parenthesis");
+    format!("{}    {section}\n)", &text[..at])
+}

@@ -2,14 +2,11 @@
 
 use crate::load_str;
 use crate::schema::Config;
+use crate::schema::shipped_with;
 use crate::shipped::SIM_CONFIG;
 
 fn with_sensor(section: &str) -> String {
-    let (_, text) = SIM_CONFIG;
-    let at = text
-        .rfind(')')
-        .expect("the shipped config ends with a parenthesis");
-    format!("{}    sensor: {section},\n)", &text[..at])
+    shipped_with(&format!("sensor: {section},"))
 }
 
 #[test]

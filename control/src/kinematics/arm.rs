@@ -267,4 +267,4 @@ impl ArmModel {
 
 #[cfg(test)]
 #[path = "arm_tests.rs"]
-mod tests;
+pub(crate) mod tests;

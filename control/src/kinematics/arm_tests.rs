@@ -24,7 +24,8 @@ fn arm_with_yaw(yaw_rad: f64) -> ArmModel {
     .unwrap()
 }
 
-fn arm() -> ArmModel {
+/// The default arm over the default tissue placement (shared with other kinematics tests).
+pub(crate) fn arm() -> ArmModel {
     arm_with_yaw(0.0)
 }
 

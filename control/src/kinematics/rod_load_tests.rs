@@ -2,10 +2,8 @@ use nalgebra::{Point3, Vector3};
 use proptest::prelude::*;
 
 use super::*;
-use crate::kinematics::params::{
-    DEFAULT_SENSOR_OFFSET_M, DEFAULT_SURFACE_DEPTH_M, tissue_under_pivot,
-};
-use crate::kinematics::{ArmModel, JointLimits, PhantomGeometry, PivotGeometry, phantom};
+use crate::kinematics::arm::tests::arm;
+use crate::kinematics::phantom;
 
 const G: f64 = 9.81;
 
@@ -158,23 +156,6 @@ fn the_lever_at_its_fulcrum_and_bad_mechanics_are_refused() {
         m.tip_load_n(&r, &Vector3::new(f64::INFINITY, 0.0, 0.0), G)
             .is_err()
     );
-}
-
-fn arm() -> ArmModel {
-    let pivot = PivotGeometry::default();
-    ArmModel::new(
-        PhantomGeometry::default(),
-        JointLimits::default(),
-        pivot,
-        tissue_under_pivot(
-            &pivot,
-            DEFAULT_SENSOR_OFFSET_M,
-            DEFAULT_SURFACE_DEPTH_M,
-            0.0,
-        ),
-        DEFAULT_SENSOR_OFFSET_M,
-    )
-    .unwrap()
 }
 
 #[test]
