@@ -1,0 +1,194 @@
+//! The lumen pressure as a follower load in finite strain: it pushes on the *deformed* wall,
+//! normal to it, so a lumen that flattens or folds is loaded where its wall now is.
+//!
+//! On a wall edge a → b (lumen on the left, [`LumenWall`]) with current tangent
+//! t = x_b − x_a, a uniform pressure p pushes the solid with p (t_y, −t_x), half to each
+//! node. Its derivative per edge is p/2 [[−R, R], [−R, R]] with R = [[0, 1], [−1, 0]]: not
+//! symmetric. On a closed wall the antisymmetric remainder (−R on node a's block from the
+//! edge leaving a, +R from the edge arriving at a) cancels node by node: the load is p ∇A,
+//! A the enclosed area, conservative with potential −p A, and its stiffness −p ∇²A is the
+//! symmetric part p/2 [[0, R], [−R, 0]] per edge. So the Cholesky solver takes the exact
+//! tangent and Newton stays quadratic. (On an open wall, e.g. a quarter model, the
+//! symmetric part is only an approximation of the tangent: a modified Newton.)
+
+use super::lumen_wall::LumenWall;
+use super::mesh::Mesh;
+
+/// Nodal forces (per unit thickness) of pressure `p_pa` on the deformed wall at `u`, added
+/// to `out`. At u = 0 this is [`Mesh::lumen_pressure_forces`].
+pub fn add_forces(wall: &LumenWall, mesh: &Mesh, u: &[f64], p_pa: f64, out: &mut [f64]) {
+    for e in &wall.edges {
+        let (xa, xb) = (LumenWall::at(mesh, u, e.a), LumenWall::at(mesh, u, e.b));
+        let t = [xb[0] - xa[0], xb[1] - xa[1]];
+        for n in [e.a, e.b] {
+            out[2 * n] += 0.5 * p_pa * t[1];
+            out[2 * n + 1] -= 0.5 * p_pa * t[0];
+        }
+    }
+}
+
+/// Index of local DOF pair (p, q), p <= q, in an element's upper triangle of 36 values.
+fn upper_index(p: usize, q: usize) -> usize {
+    8 * p - p * (p.saturating_sub(1)) / 2 + q - p
+}
+
+/// Add the load stiffness −(symmetric part of ∂f/∂u) of pressure `p_pa` into the element
+/// matrices (upper triangles) of the wall's elements. It does not depend on `u`.
+pub fn add_tangent(wall: &LumenWall, p_pa: f64, element_k: &mut [[f64; 36]]) {
+    let h = 0.5 * p_pa;
+    for e in &wall.edges {
+        let [la, lb] = e.local;
+        let k = &mut element_k[e.element];
+        // K[x_a][y_b] = −p/2, K[y_a][x_b] = +p/2.
+        for (p, q, v) in [(2 * la, 2 * lb + 1, -h), (2 * la + 1, 2 * lb, h)] {
+            k[upper_index(p.min(q), p.max(q))] += v;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sparse::Pattern;
+
+    /// A full ring a <= r <= b meshed n_r x n_t (counter-clockwise elements), its inner
+    /// circle the lumen.
+    pub(crate) fn ring(a: f64, b: f64, n_r: usize, n_t: usize) -> Mesh {
+        let mut m = Mesh {
+            feature_centre: Some([0.0, 0.0]),
+            ..Mesh::default()
+        };
+        let id = |i: usize, j: usize| ((j % n_t) * (n_r + 1) + i) as u32;
+        for j in 0..n_t {
+            let t = std::f64::consts::TAU * j as f64 / n_t as f64;
+            for i in 0..=n_r {
+                let r = a + (b - a) * i as f64 / n_r as f64;
+                m.nodes.push([r * t.cos(), r * t.sin()]);
+            }
+        }
+        for j in 0..n_t {
+            for i in 0..n_r {
+                m.elements
+                    .push([id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
+                m.region.push(0);
+            }
+            m.lumen_edges.push([id(0, j), id(0, j + 1)]);
+        }
+        m
+    }
+
+    /// Deterministic pseudo-random numbers in [-1, 1] (xorshift).
+    fn noise(n: usize, mut s: u64) -> Vec<f64> {
+        (0..n)
+            .map(|_| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+            })
+            .collect()
+    }
+
+    #[test]
+    fn at_rest_the_follower_load_is_the_reference_load() {
+        let m = ring(1e-3, 2e-3, 2, 24);
+        let w = LumenWall::new(&m).unwrap();
+        let mut f = vec![0.0; m.dofs()];
+        add_forces(&w, &m, &vec![0.0; m.dofs()], 1234.0, &mut f);
+        let dead = m.lumen_pressure_forces(1234.0);
+        for (a, b) in f.iter().zip(&dead) {
+            assert!((a - b).abs() < 1e-12 * 1234.0 * 1e-3, "{a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn the_load_follows_the_wall_and_has_no_resultant_in_any_shape() {
+        let m = ring(1e-3, 2e-3, 2, 24);
+        let w = LumenWall::new(&m).unwrap();
+        let p = 1e4;
+        // An arbitrary deformed shape: a large distortion of every node.
+        let u: Vec<f64> = noise(m.dofs(), 7).iter().map(|v| 2e-4 * v).collect();
+        let x = |u: &[f64], n: usize| LumenWall::at(&m, u, n);
+        let mut f = vec![0.0; m.dofs()];
+        add_forces(&w, &m, &u, p, &mut f);
+        let (mut fx, mut fy, mut moment, mut size) = (0.0, 0.0, 0.0, 0.0f64);
+        for n in 0..m.nodes.len() {
+            let xy = x(&u, n);
+            fx += f[2 * n];
+            fy += f[2 * n + 1];
+            moment += xy[0] * f[2 * n + 1] - xy[1] * f[2 * n];
+            size = size.max(f[2 * n].abs()).max(f[2 * n + 1].abs());
+        }
+        assert!(size > 0.0);
+        assert!(
+            fx.abs() < 1e-12 * size && fy.abs() < 1e-12 * size,
+            "{fx} {fy}"
+        );
+        assert!(moment.abs() < 1e-12 * size * 2e-3, "moment {moment}");
+        // Rotate that shape rigidly by 40°: every nodal force rotates with it.
+        let (c, s) = (40f64.to_radians().cos(), 40f64.to_radians().sin());
+        let mut rotated = vec![0.0; m.dofs()];
+        for n in 0..m.nodes.len() {
+            let xy = x(&u, n);
+            let r = [c * xy[0] - s * xy[1], s * xy[0] + c * xy[1]];
+            rotated[2 * n] = r[0] - m.nodes[n][0];
+            rotated[2 * n + 1] = r[1] - m.nodes[n][1];
+        }
+        let mut fr = vec![0.0; m.dofs()];
+        add_forces(&w, &m, &rotated, p, &mut fr);
+        for n in 0..m.nodes.len() {
+            let want = [
+                c * f[2 * n] - s * f[2 * n + 1],
+                s * f[2 * n] + c * f[2 * n + 1],
+            ];
+            assert!((fr[2 * n] - want[0]).abs() < 1e-9 * size);
+            assert!((fr[2 * n + 1] - want[1]).abs() < 1e-9 * size);
+        }
+    }
+
+    #[test]
+    fn on_a_closed_wall_the_symmetric_tangent_is_the_exact_derivative() {
+        let m = ring(1e-3, 2e-3, 1, 16);
+        let w = LumenWall::new(&m).unwrap();
+        assert!(w.is_closed());
+        let p = 1e4;
+        let pattern = Pattern::new(&m).unwrap();
+        let mut ke = vec![[0.0; 36]; m.elements.len()];
+        add_tangent(&w, p, &mut ke);
+        let k = pattern.assemble(&ke);
+        let u: Vec<f64> = noise(m.dofs(), 3).iter().map(|v| 1e-4 * v).collect();
+        let h = 1e-7;
+        for seed in [11, 12, 13] {
+            let v = noise(m.dofs(), seed);
+            let shift = |s: f64| -> Vec<f64> {
+                let us: Vec<f64> = u.iter().zip(&v).map(|(a, b)| a + s * b).collect();
+                let mut f = vec![0.0; m.dofs()];
+                add_forces(&w, &m, &us, p, &mut f);
+                f
+            };
+            let (fp, fm) = (shift(h), shift(-h));
+            let kv = pattern.mul(&k, &v);
+            let scale = kv.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            for i in 0..m.dofs() {
+                // K is −∂f/∂u.
+                let fd = -(fp[i] - fm[i]) / (2.0 * h);
+                assert!(
+                    (fd - kv[i]).abs() < 1e-6 * scale,
+                    "dof {i}: {fd} vs {}",
+                    kv[i]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn upper_indices_follow_the_element_layout() {
+        let mut i = 0;
+        for p in 0..8 {
+            for q in p..8 {
+                assert_eq!(upper_index(p, q), i);
+                i += 1;
+            }
+        }
+    }
+}
