@@ -25,17 +25,19 @@ use super::mesh::Mesh;
 use super::model::{Load, ModelFile};
 use super::neo_hookean::{element_cauchy, element_state};
 use super::recovery::top_stresses;
-use super::self_contact::{Facing, SelfContact};
+use super::self_contact::{Facing, SELF_PENALTY_PER_MODULUS, SelfContact};
 use super::solve_error::SolveError;
 use super::sparse::{Constrained, Pattern, element_dofs};
 
 /// How the lumen is modelled in finite strain.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LumenModel {
     /// The pressure acts on the deformed wall (else in its reference direction).
     pub follower: bool,
     /// The wall's frictionless self-contact.
     pub self_contact: bool,
+    /// The self-contact's penalty per unit of the stiffest wall material's modulus.
+    pub penalty_per_modulus: f64,
 }
 
 impl Default for LumenModel {
@@ -43,6 +45,7 @@ impl Default for LumenModel {
         Self {
             follower: true,
             self_contact: true,
+            penalty_per_modulus: SELF_PENALTY_PER_MODULUS,
         }
     }
 }
@@ -79,6 +82,9 @@ pub struct FiniteModel<'m> {
     /// it the lumen pressure is the dead load `dead_unit` × p.
     lumen: Option<Lumen>,
     dead_unit: Vec<f64>,
+    /// A force per unit thickness below which a residual is round-off: 10⁻⁶ of the stiffest
+    /// modulus times the mesh's size (a stress-free rigid motion has no other force scale).
+    force_floor: f64,
     pub stats: NewtonStats,
 }
 
@@ -133,6 +139,8 @@ impl<'m> FiniteModel<'m> {
             .map(|e| Q4::new(&mesh.element_coords(e)).map_err(|_| SolveError::BadElement(e)))
             .collect::<Result<Vec<_>, _>>()?;
         let symbolic = pattern.symbolic()?;
+        let size = elements.iter().map(|q| q.area).sum::<f64>().sqrt();
+        let modulus = materials.iter().fold(0.0f64, |m, mat| m.max(mat.e_pa));
         Ok(Self {
             mesh,
             materials: materials.to_vec(),
@@ -142,6 +150,7 @@ impl<'m> FiniteModel<'m> {
             symbolic,
             lumen: None,
             dead_unit: mesh.lumen_pressure_forces(1.0),
+            force_floor: 1e-6 * modulus * size,
             stats: NewtonStats::default(),
         })
     }
@@ -158,7 +167,11 @@ impl<'m> FiniteModel<'m> {
                 let region = self.mesh.region[e.element] as usize;
                 m.max(self.materials.get(region).map_or(0.0, |mat| mat.e_pa))
             });
-            Some(SelfContact::for_wall(&wall, self.mesh, modulus))
+            Some(SelfContact::for_wall(
+                &wall,
+                self.mesh,
+                how.penalty_per_modulus * modulus,
+            ))
         } else {
             None
         };
@@ -375,7 +388,7 @@ impl<'m> FiniteModel<'m> {
                 .filter(|(_, f)| **f)
                 .map(|(v, _)| v * v)
                 .sum();
-            ext.max(reac).sqrt().max(1e-30)
+            ext.max(reac).sqrt().max(self.force_floor).max(1e-30)
         };
         for it in 0..MAX_NEWTON {
             let du_c: Vec<f64> = target.iter().zip(&x).map(|(t, xi)| t - xi).collect();
@@ -522,6 +535,20 @@ impl<'m> FiniteModel<'m> {
             }
         }
         Ok(())
+    }
+
+    /// The elements' internal forces at `u` (no penalties or loads): on the fixed DOFs at
+    /// equilibrium, the support reactions. `None` if an element inverts.
+    pub fn internal_forces(&self, u: &[f64]) -> Option<Vec<f64>> {
+        let mut fint = vec![0.0; self.mesh.dofs()];
+        for e in 0..self.mesh.elements.len() {
+            let m = &self.materials[self.mesh.region[e] as usize];
+            let (f, _) = element_state(&self.elements[e], m, self.analysis, &self.gather(e, u))?;
+            for (i, &d) in element_dofs(&self.mesh.elements[e]).iter().enumerate() {
+                fint[d] += f[i];
+            }
+        }
+        Some(fint)
     }
 
     /// Recovered Cauchy stresses at the top nodes.

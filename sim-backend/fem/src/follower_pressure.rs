@@ -191,4 +191,74 @@ mod tests {
             }
         }
     }
+
+    /// The ring under pressure `p_pa` with the follower or the dead load: mean radial
+    /// displacement of the inner nodes, its spread, and the supports' largest reaction.
+    fn pressurized_ring(p_pa: f64, follower: bool) -> (f64, f64, f64) {
+        use crate::finite::{FiniteModel, Loads, LumenModel};
+        use crate::material::{Analysis, Material};
+        let (a, b, n_r, n_t) = (1e-3, 2e-3, 4, 48);
+        let m = ring(a, b, n_r, n_t);
+        let how = LumenModel {
+            follower,
+            self_contact: false,
+            ..LumenModel::default()
+        };
+        let fm = FiniteModel::new(&m, &[Material::new(50e3, 0.3)], Analysis::PlaneStress)
+            .unwrap()
+            .with_lumen(how)
+            .unwrap();
+        // Rigid-body modes: inner nodes at 0° and 180° held in y, at 90° in x (by symmetry
+        // they carry nothing).
+        let node = |j: usize| j * (n_r + 1);
+        let mut fixed = vec![false; m.dofs()];
+        fixed[2 * node(0) + 1] = true;
+        fixed[2 * node(n_t / 2) + 1] = true;
+        fixed[2 * node(n_t / 4)] = true;
+        let zeros = vec![0.0; m.dofs()];
+        let mut u = zeros.clone();
+        let at = |p| Loads {
+            target: &zeros,
+            fext: &zeros,
+            indent_m: 0.0,
+            lumen_pa: p,
+        };
+        fm.advance_loads(&mut u, &fixed, at(0.0), at(p_pa), None, 4)
+            .unwrap();
+        let radial: Vec<f64> = (0..n_t)
+            .map(|j| {
+                let n = node(j);
+                let [x, y] = m.nodes[n];
+                (x * u[2 * n] + y * u[2 * n + 1]) / a
+            })
+            .collect();
+        let mean = radial.iter().sum::<f64>() / n_t as f64;
+        let spread = radial.iter().fold(0.0f64, |s, r| s.max((r - mean).abs()));
+        let fint = fm.internal_forces(&u).unwrap();
+        let reaction = (0..m.dofs())
+            .filter(|&d| fixed[d])
+            .fold(0.0f64, |r, d| r.max(fint[d].abs()));
+        (mean, spread, reaction)
+    }
+
+    #[test]
+    fn a_pressurized_ring_expands_as_lame_says_and_a_follower_more_than_a_dead_load() {
+        // Small strain (p/E = 10⁻⁴): Lamé's plane-stress thick cylinder,
+        // u(a) = [(1 − ν) A a + (1 + ν) B/a]/E, A = p a²/(b² − a²), B = A b².
+        let (a, b, e, nu, p) = (1e-3, 2e-3, 50e3, 0.3, 5.0);
+        let big_a = p * a * a / (b * b - a * a);
+        let lame = ((1.0 - nu) * big_a * a + (1.0 + nu) * big_a * b * b / a) / e;
+        let (u, spread, reaction) = pressurized_ring(p, true);
+        assert!((u - lame).abs() < 0.015 * lame, "{u} vs Lamé {lame}");
+        assert!(spread < 1e-6 * u, "not axisymmetric: {spread} of {u}");
+        assert!(reaction < 1e-6 * p * a, "supports loaded: {reaction}");
+        let (dead, _, _) = pressurized_ring(p, false);
+        assert!((dead - u).abs() < 1e-3 * u, "{dead} vs {u}");
+        // At p/E = 0.1 the follower pushes on the enlarged wall, the dead load on the
+        // reference one: the follower ring expands more, and both stay axisymmetric.
+        let (fu, fs, _) = pressurized_ring(5e3, true);
+        let (du, ds, _) = pressurized_ring(5e3, false);
+        assert!(fs < 1e-6 * fu && ds < 1e-6 * du, "{fs} {ds}");
+        assert!(fu > 1.02 * du, "follower {fu} vs dead {du}");
+    }
 }

@@ -78,9 +78,9 @@ fn left_normal(p: [f64; 2], q: [f64; 2]) -> Option<([f64; 2], [f64; 2], f64)> {
 }
 
 impl SelfContact {
-    /// A penalty of [`SELF_PENALTY_PER_MODULUS`] × `modulus_pa` and a window of the wall's
-    /// longest reference edge.
-    pub fn for_wall(wall: &LumenWall, mesh: &Mesh, modulus_pa: f64) -> Self {
+    /// A penalty `penalty_pa` (e.g. [`SELF_PENALTY_PER_MODULUS`] × the wall's modulus) and
+    /// a window of the wall's longest reference edge.
+    pub fn for_wall(wall: &LumenWall, mesh: &Mesh, penalty_pa: f64) -> Self {
         let zero = vec![0.0; mesh.dofs()];
         let longest = wall.edges.iter().fold(0.0f64, |m, e| {
             let (p, q) = (
@@ -90,7 +90,7 @@ impl SelfContact {
             m.max(((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)).sqrt())
         });
         Self {
-            penalty_pa: SELF_PENALTY_PER_MODULUS * modulus_pa,
+            penalty_pa,
             window_m: longest,
         }
     }
@@ -211,5 +211,192 @@ impl SelfContact {
             .iter()
             .fold(0.0f64, |d, fa| d.max(-fa.g));
         (f, deepest)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::finite::{FiniteModel, LumenModel};
+    use crate::material::{Analysis, Material};
+
+    const E_PA: f64 = 50e3;
+    const W: f64 = 0.01;
+    const H: f64 = 0.004;
+    const GAP: f64 = 0.0005;
+
+    /// An nx x ny grid of elements over [x0, x0 + w] x [y0, y0 + h]: its bottom and top rows
+    /// of nodes.
+    fn slab(m: &mut Mesh, y0: f64, nx: usize, ny: usize) -> (Vec<u32>, Vec<u32>) {
+        let base = m.nodes.len();
+        let id = |i: usize, j: usize| (base + j * (nx + 1) + i) as u32;
+        for j in 0..=ny {
+            for i in 0..=nx {
+                m.nodes
+                    .push([W * i as f64 / nx as f64, y0 + H * j as f64 / ny as f64]);
+            }
+        }
+        for j in 0..ny {
+            for i in 0..nx {
+                m.elements
+                    .push([id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
+                m.region.push(0);
+            }
+        }
+        (
+            (0..=nx).map(|i| id(i, 0)).collect(),
+            (0..=nx).map(|i| id(i, ny)).collect(),
+        )
+    }
+
+    /// Two blocks, one above the other across a gap, with non-matching nodes on the faces
+    /// that meet; the two faces are the "lumen's wall".
+    struct Blocks {
+        mesh: Mesh,
+        lower: Vec<bool>,
+        fixed: Vec<bool>,
+        top: Vec<u32>,
+        bottom: Vec<u32>,
+    }
+
+    fn blocks() -> Blocks {
+        let mut mesh = Mesh::default();
+        let (bottom, lower_top) = slab(&mut mesh, 0.0, 8, 3);
+        let n_lower = mesh.nodes.len();
+        let (upper_bottom, top) = slab(&mut mesh, H + GAP, 7, 3);
+        for row in [&lower_top, &upper_bottom] {
+            mesh.lumen_edges
+                .extend(row.windows(2).map(|p| [p[0], p[1]]));
+        }
+        mesh.top = top.clone();
+        mesh.bottom = bottom.clone();
+        let mut fixed = vec![false; mesh.dofs()];
+        for &n in bottom.iter().chain(&top) {
+            fixed[2 * n as usize + 1] = true;
+        }
+        fixed[2 * bottom[0] as usize] = true;
+        fixed[2 * top[0] as usize] = true;
+        let lower = (0..mesh.nodes.len()).map(|n| n < n_lower).collect();
+        Blocks {
+            mesh,
+            lower,
+            fixed,
+            top,
+            bottom,
+        }
+    }
+
+    struct Pressed {
+        /// Contact force on the upper block and on the lower block (y, N/m).
+        on_upper: f64,
+        on_lower: f64,
+        /// Support reactions at the top and at the bottom (y, N/m).
+        top_reaction: f64,
+        bottom_reaction: f64,
+        penetration: f64,
+        active: usize,
+    }
+
+    /// Press the upper block's top down by each of `depths` in turn, with the penalty
+    /// `per_modulus` × E.
+    fn press(depths: &[f64], per_modulus: f64) -> Vec<Pressed> {
+        let b = blocks();
+        let m = &b.mesh;
+        let how = LumenModel {
+            follower: false,
+            self_contact: true,
+            penalty_per_modulus: per_modulus,
+        };
+        let fm = FiniteModel::new(m, &[Material::new(E_PA, 0.3)], Analysis::PlaneStrain)
+            .unwrap()
+            .with_lumen(how)
+            .unwrap();
+        let wall = LumenWall::new(m).unwrap();
+        let contact = SelfContact::for_wall(&wall, m, per_modulus * E_PA);
+        let zeros = vec![0.0; m.dofs()];
+        let mut u = zeros.clone();
+        let mut from = zeros.clone();
+        let mut out = Vec::new();
+        for &d in depths {
+            let mut target = zeros.clone();
+            for &n in &b.top {
+                target[2 * n as usize + 1] = -d;
+            }
+            fm.advance(&mut u, &b.fixed, (&from, &zeros), (&target, &zeros), 4)
+                .unwrap();
+            from = target;
+            let (f, penetration) = contact.forces(&wall, m, &u);
+            let fint = fm.internal_forces(&u).unwrap();
+            let sum_y = |nodes: &mut dyn Iterator<Item = usize>, v: &[f64]| -> f64 {
+                nodes.map(|n| v[2 * n + 1]).sum()
+            };
+            let n_all = m.nodes.len();
+            out.push(Pressed {
+                on_upper: sum_y(&mut (0..n_all).filter(|&n| !b.lower[n]), &f),
+                on_lower: sum_y(&mut (0..n_all).filter(|&n| b.lower[n]), &f),
+                top_reaction: sum_y(&mut b.top.iter().map(|&n| n as usize), &fint),
+                bottom_reaction: sum_y(&mut b.bottom.iter().map(|&n| n as usize), &fint),
+                penetration,
+                active: contact
+                    .facings(&wall, m, &u)
+                    .iter()
+                    .filter(|f| f.g < 0.0)
+                    .count(),
+            });
+        }
+        out
+    }
+
+    #[test]
+    fn no_contact_force_while_the_gap_is_open() {
+        // Halfway across the gap, then further, then back: nothing touches.
+        for p in press(&[0.5 * GAP, 0.9 * GAP, 0.3 * GAP], SELF_PENALTY_PER_MODULUS) {
+            assert_eq!(p.active, 0);
+            assert!(p.on_upper == 0.0 && p.on_lower == 0.0);
+            assert!(p.penetration == 0.0);
+            // The upper block just moves down: no load anywhere.
+            assert!(p.top_reaction.abs() < 1e-9 && p.bottom_reaction.abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn pressed_walls_carry_the_load_without_passing_through_each_other() {
+        let squeeze = 0.0004; // 5 % of the two blocks' height
+        let depths = [GAP + 0.5 * squeeze, GAP + squeeze, 0.5 * GAP];
+        let soft = press(&depths, SELF_PENALTY_PER_MODULUS);
+        let stiff = press(&depths, 10.0 * SELF_PENALTY_PER_MODULUS);
+        for run in [&soft, &stiff] {
+            for p in &run[..2] {
+                assert!(p.active >= 8, "{}", p.active);
+                // The contact force balances the supports on each block, and the walls
+                // push each other equally.
+                let scale = p.on_upper.abs();
+                assert!(p.on_upper > 0.0);
+                assert!((p.on_upper + p.top_reaction).abs() < 1e-6 * scale);
+                assert!((p.on_lower + p.bottom_reaction).abs() < 1e-6 * scale);
+                assert!((p.on_upper + p.on_lower).abs() < 1e-9 * scale);
+            }
+            // Uniaxial plane-strain compression of the 8 mm stack: E/(1 - ν²) ε W, within
+            // the finite-strain difference.
+            let want = E_PA / (1.0 - 0.09) * squeeze / (2.0 * H) * W;
+            let got = run[1].on_upper;
+            assert!((got - want).abs() < 0.06 * want, "{got} vs {want}");
+            // Backed off to half the gap: open again, no force.
+            assert!(run[2].active == 0 && run[2].on_upper == 0.0);
+        }
+        // Penetration is small and shrinks with the penalty (about as 1/ε).
+        for (s, t) in soft.iter().zip(&stiff).take(2) {
+            assert!(
+                s.penetration > 0.0 && s.penetration < 1e-3 * squeeze,
+                "{}",
+                s.penetration
+            );
+            assert!(
+                t.penetration < 0.15 * s.penetration,
+                "{} vs {}",
+                t.penetration,
+                s.penetration
+            );
+        }
     }
 }
