@@ -5,8 +5,8 @@
 //! ([`super::finger_penalty`]), its indentation ramped with the load. The lumen pressure is,
 //! by default, a follower load on the deformed wall ([`super::follower_pressure`]; exact and
 //! symmetric tangent on a closed lumen) and the wall is in frictionless self-contact
-//! ([`super::self_contact`]; its tangent, which couples nodes across the lumen, goes to the
-//! solver as rank-one terms, [`super::low_rank`]), so that a lumen can close. Without
+//! ([`super::self_contact`]; its tangent couples nodes across the lumen, so the pattern then
+//! couples every pair of wall nodes), so that a lumen can close. Without
 //! [`FiniteModel::with_lumen`] the pressure keeps its reference direction (a dead load).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -18,14 +18,13 @@ use super::contact::Indenter;
 use super::element::Q4;
 use super::finger_penalty::{FingerPenalty, PENALTY_PER_MODULUS};
 use super::follower_pressure;
-use super::low_rank::{self, RankOne};
 use super::lumen_wall::LumenWall;
 use super::material::{Analysis, Material};
 use super::mesh::Mesh;
 use super::model::{Load, ModelFile};
 use super::neo_hookean::{element_cauchy, element_state};
 use super::recovery::top_stresses;
-use super::self_contact::{Facing, SELF_PENALTY_PER_MODULUS, SelfContact};
+use super::self_contact::{Facing, SELF_PENALTY_PER_MODULUS, SelfContact, wall_pairs};
 use super::solve_error::SolveError;
 use super::sparse::{Constrained, Pattern, element_dofs};
 
@@ -124,8 +123,6 @@ struct State {
     values: Vec<f64>,
     /// The follower's share of `values`, to take out if the tangent with it is indefinite.
     follower_values: Option<Vec<f64>>,
-    /// The self-contact's tangent (not in the pattern).
-    terms: Vec<RankOne>,
 }
 
 impl<'m> FiniteModel<'m> {
@@ -167,6 +164,10 @@ impl<'m> FiniteModel<'m> {
                 let region = self.mesh.region[e.element] as usize;
                 m.max(self.materials.get(region).map_or(0.0, |mat| mat.e_pa))
             });
+            // The contact couples wall nodes across the lumen: a pattern (and its symbolic
+            // factorization) with every pair of them.
+            self.pattern = Pattern::with_pairs(self.mesh, &wall_pairs(&wall))?;
+            self.symbolic = self.pattern.symbolic()?;
             Some(SelfContact::for_wall(
                 &wall,
                 self.mesh,
@@ -240,21 +241,19 @@ impl<'m> FiniteModel<'m> {
                 &mut values,
             );
         }
-        let mut terms = Vec::new();
         if let Some(Lumen {
             wall,
             contact: Some(c),
             ..
         }) = &self.lumen
         {
-            c.add(wall, self.mesh, u, &mut fint, &mut terms);
+            c.add(wall, self.mesh, &self.pattern, u, &mut fint, &mut values);
         }
         Some(State {
             fint,
             load,
             values,
             follower_values,
-            terms,
         })
     }
 
@@ -268,14 +267,12 @@ impl<'m> FiniteModel<'m> {
             .sqrt()
     }
 
-    /// Solve the Newton system with tangent `values` (+ `terms`); if it is not positive
-    /// definite and holds the follower's load stiffness, again without it.
-    #[allow(clippy::too_many_arguments)]
+    /// Solve the Newton system with tangent `values`; if it is not positive definite and
+    /// holds the follower's load stiffness, again without it.
     fn solve_tangent(
         &self,
         values: &[f64],
         follower_values: Option<&[f64]>,
-        terms: &[RankOne],
         fixed: &[bool],
         rhs: &[f64],
         du_c: &[f64],
@@ -284,14 +281,13 @@ impl<'m> FiniteModel<'m> {
             Constrained::new(&self.pattern, &self.symbolic, values, fixed),
             follower_values,
         ) {
-            (Ok(c), _) => low_rank::solve(&c, fixed, rhs, du_c, terms),
+            (Ok(c), _) => c.solve(rhs, du_c),
             (Err(SolveError::NotPositiveDefinite), Some(kp)) => {
                 self.stats
                     .tangents_held_back
                     .fetch_add(1, Ordering::Relaxed);
                 let held: Vec<f64> = values.iter().zip(kp).map(|(a, b)| a - b).collect();
-                let c = Constrained::new(&self.pattern, &self.symbolic, &held, fixed)?;
-                low_rank::solve(&c, fixed, rhs, du_c, terms)
+                Constrained::new(&self.pattern, &self.symbolic, &held, fixed)?.solve(rhs, du_c)
             }
             (Err(e), _) => Err(e),
         }
@@ -308,11 +304,11 @@ impl<'m> FiniteModel<'m> {
         du_c: &[f64],
         level: &Level<'_>,
     ) -> Result<Vec<f64>, SolveError> {
-        let solve = |fi: &[f64], k: &[f64], terms: &[RankOne]| -> Result<Vec<f64>, SolveError> {
+        let solve = |fi: &[f64], k: &[f64]| -> Result<Vec<f64>, SolveError> {
             let rhs: Vec<f64> = st.load.iter().zip(fi).map(|(a, b)| a - b).collect();
-            self.solve_tangent(k, st.follower_values.as_deref(), terms, fixed, &rhs, du_c)
+            self.solve_tangent(k, st.follower_values.as_deref(), fixed, &rhs, du_c)
         };
-        let mut du = solve(&st.fint, &st.values, &st.terms)?;
+        let mut du = solve(&st.fint, &st.values)?;
         let contact = match &self.lumen {
             Some(Lumen {
                 wall,
@@ -337,7 +333,10 @@ impl<'m> FiniteModel<'m> {
             }
             if let Some((wall, c)) = contact {
                 for f in c.closing(wall, self.mesh, x, &du) {
-                    if !closing_walls.iter().any(|g| g.slave == f.slave) {
+                    if !closing_walls
+                        .iter()
+                        .any(|g| g.slave == f.slave && g.edge == f.edge)
+                    {
                         closing_walls.push(f);
                         grew = true;
                     }
@@ -348,7 +347,6 @@ impl<'m> FiniteModel<'m> {
             }
             let mut fi = st.fint.clone();
             let mut k = st.values.clone();
-            let mut terms = st.terms.clone();
             if let Some((f, indent_m)) = level.finger {
                 f.add_closing(
                     self.mesh,
@@ -361,9 +359,9 @@ impl<'m> FiniteModel<'m> {
                 );
             }
             if let Some((wall, c)) = contact {
-                c.add_branch(wall, closing_walls.iter(), &mut fi, &mut terms);
+                c.add_branch(wall, &self.pattern, closing_walls.iter(), &mut fi, &mut k);
             }
-            du = solve(&fi, &k, &terms)?;
+            du = solve(&fi, &k)?;
         }
         Ok(du)
     }
@@ -566,11 +564,14 @@ impl<'m> FiniteModel<'m> {
         let (contact_nodes, penetration_m, contact_force_n_per_m) = match &l.contact {
             Some(c) => {
                 let (f, deepest) = c.forces(&l.wall, self.mesh, u);
-                let active = c
+                let mut active: Vec<usize> = c
                     .facings(&l.wall, self.mesh, u)
                     .iter()
                     .filter(|f| f.g < 0.0)
-                    .count();
+                    .map(|f| f.slave)
+                    .collect();
+                active.dedup();
+                let active = active.len();
                 // Half the sum of |force| over the nodes: each pair pushes both ways.
                 let total = 0.5
                     * f.chunks_exact(2)
@@ -654,17 +655,39 @@ pub fn solve_times(
     mesh: &Mesh,
     steps: u32,
 ) -> Result<Vec<TopState>, SolveError> {
-    solve_times_with(model, mesh, steps, LumenModel::default()).map(|(states, _)| states)
+    solve_times_with(
+        model,
+        mesh,
+        steps,
+        LumenModel::default(),
+        LoadPath::Together,
+    )
+    .map(|(states, _)| states)
 }
 
-/// Solve a model in finite strain: ramp the platen or the finger and the first time's lumen
-/// pressure from zero in `steps` increments, then follow the pressure through the output
-/// times. Also returns the Newton iterations, cuts and held-back tangents it took.
+/// The order in which a finite-strain solve applies its loads before the first output time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LoadPath {
+    /// The platen or finger and the first time's lumen pressure ramped together: the artery
+    /// is pressurized all the way in.
+    #[default]
+    Together,
+    /// The platen or finger first with no lumen pressure, then the pressure: paper 002's
+    /// "for the first 1 second, the finger reached on maximum indentation and, for the next
+    /// 1 second, the pressure data was applied".
+    IndentFirst,
+}
+
+/// Solve a model in finite strain: bring the platen or the finger and the first time's lumen
+/// pressure from zero in `steps` increments (in the order `path` says), then follow the
+/// pressure through the output times. Also returns the Newton iterations, cuts and held-back
+/// tangents it took.
 pub fn solve_times_with(
     model: &ModelFile,
     mesh: &Mesh,
     steps: u32,
     lumen: LumenModel,
+    path: LoadPath,
 ) -> Result<(Vec<TopState>, [usize; 3]), SolveError> {
     let fm = FiniteModel::new(mesh, &model.materials(), model.analysis)?.with_lumen(lumen)?;
     let (fixed, target) = supports(mesh, model);
@@ -674,31 +697,52 @@ pub fn solve_times_with(
     let x_centre = mesh.feature_centre.map_or(model.x_origin_m(), |c| c[0]);
     let mut u = zeros.clone();
     let mut out = Vec::new();
+    let loads = |target, indent_m, lumen_pa| Loads {
+        target,
+        fext: &zeros,
+        indent_m,
+        lumen_pa,
+    };
+    let finger_ref = finger.as_ref().map(|(f, _)| f);
     let mut prev: Option<f64> = None;
     for &t in &model.times_s {
         let p = model.pressure_at(t);
-        let (from, steps) = match prev {
-            None => ((&zeros, 0.0, 0.0), steps),
-            Some(pa) => ((&target, indent, pa), 2),
-        };
-        fm.advance_loads(
-            &mut u,
-            &fixed,
-            Loads {
-                target: from.0,
-                fext: &zeros,
-                indent_m: from.1,
-                lumen_pa: from.2,
-            },
-            Loads {
-                target: &target,
-                fext: &zeros,
-                indent_m: indent,
-                lumen_pa: p,
-            },
-            finger.as_ref().map(|(f, _)| f),
-            steps,
-        )?;
+        match (prev, path) {
+            (None, LoadPath::Together) => fm.advance_loads(
+                &mut u,
+                &fixed,
+                loads(&zeros, 0.0, 0.0),
+                loads(&target, indent, p),
+                finger_ref,
+                steps,
+            )?,
+            (None, LoadPath::IndentFirst) => {
+                fm.advance_loads(
+                    &mut u,
+                    &fixed,
+                    loads(&zeros, 0.0, 0.0),
+                    loads(&target, indent, 0.0),
+                    finger_ref,
+                    steps,
+                )?;
+                fm.advance_loads(
+                    &mut u,
+                    &fixed,
+                    loads(&target, indent, 0.0),
+                    loads(&target, indent, p),
+                    finger_ref,
+                    steps,
+                )?;
+            }
+            (Some(pa), _) => fm.advance_loads(
+                &mut u,
+                &fixed,
+                loads(&target, indent, pa),
+                loads(&target, indent, p),
+                finger_ref,
+                2,
+            )?,
+        }
         let penetration_m = finger
             .as_ref()
             .map_or(0.0, |(f, d)| f.forces(mesh, &u, *d).1);

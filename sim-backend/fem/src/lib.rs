@@ -12,6 +12,7 @@
 #![allow(clippy::needless_range_loop)] // index loops read like the formulas
 
 pub mod boundary;
+pub mod collapse;
 pub mod contact;
 pub mod element;
 pub mod finger_penalty;
@@ -20,7 +21,6 @@ pub mod follower_pressure;
 pub mod kernel;
 pub mod linear;
 pub mod llt;
-pub mod low_rank;
 pub mod lumen_wall;
 pub mod material;
 pub mod mesh;

@@ -15,13 +15,20 @@
 //! closing on each other, not a node and its neighbours on one wall), with s's projection
 //! on the segment and g above −`window_m` (a node further behind a segment is on another
 //! part of the wall, not in contact with it). Of these the one with the smallest |g| is the
-//! node's. The coupling of s with a and b is not in the stiffness's sparse pattern (they
-//! share no element), so the tangent is handed to the solver as rank-one terms
-//! ([`super::low_rank`]).
+//! node's; if the segment across its nearer vertex faces the node too (a vertex where the
+//! wall turns towards it), the two share the node's penalty half and half — else the choice
+//! flips between them at the vertex's bisector, where a node pressed head-on onto a vertex
+//! sits, and Newton crawls.
+//!
+//! The coupling of s with a and b is not in an element's pattern (they share no element):
+//! the solver's pattern couples every pair of wall nodes ([`wall_pairs`]), a dense block of
+//! a few hundred DOFs, so the tangent is assembled and factored whole. (Handing it to the
+//! factor of the tissue alone as a low-rank update fails where the contact is what holds a
+//! buckled wall up: that factor is then indefinite.)
 
-use super::low_rank::RankOne;
 use super::lumen_wall::LumenWall;
 use super::mesh::Mesh;
+use super::sparse::Pattern;
 
 /// Penalty per unit of the stiffest wall material's Young's modulus, as the finger's.
 pub const SELF_PENALTY_PER_MODULUS: f64 = 1e3;
@@ -46,6 +53,9 @@ pub struct Facing {
     pub xi: f64,
     /// The segment's unit normal into the lumen.
     pub n: [f64; 2],
+    /// Share of the node's penalty on this segment: 1, or 1/2 each for two segments
+    /// meeting at a vertex the node faces.
+    pub weight: f64,
 }
 
 impl Facing {
@@ -75,6 +85,18 @@ fn left_normal(p: [f64; 2], q: [f64; 2]) -> Option<([f64; 2], [f64; 2], f64)> {
     }
     let l = l2.sqrt();
     Some(([-t[1] / l, t[0] / l], t, l2))
+}
+
+/// Every pair of wall nodes: the pattern entries the self-contact may need.
+pub fn wall_pairs(wall: &LumenWall) -> Vec<[usize; 2]> {
+    let n = &wall.nodes;
+    let mut out = Vec::with_capacity(n.len() * n.len().saturating_sub(1) / 2);
+    for (i, &a) in n.iter().enumerate() {
+        for &b in &n[i + 1..] {
+            out.push([a, b]);
+        }
+    }
+    out
 }
 
 impl SelfContact {
@@ -117,70 +139,102 @@ impl SelfContact {
                     ns = [ns[0] + n[0], ns[1] + n[1]];
                 }
             }
-            let mut best: Option<Facing> = None;
-            for (k, e) in wall.edges.iter().enumerate() {
+            let facing = |k: usize| -> Option<Facing> {
+                let e = wall.edges.get(k)?;
                 if e.a == s || e.b == s {
-                    continue;
+                    return None;
                 }
-                let Some((n, t, l2)) = normals[k] else {
-                    continue;
-                };
+                let (n, t, l2) = normals[k]?;
                 if n[0] * ns[0] + n[1] * ns[1] >= 0.0 {
-                    continue;
+                    return None;
                 }
                 let pa = x[slot(e.a)];
                 let d = [x[i][0] - pa[0], x[i][1] - pa[1]];
                 let xi = (d[0] * t[0] + d[1] * t[1]) / l2;
                 let g = d[0] * n[0] + d[1] * n[1];
-                if !(0.0..=1.0).contains(&xi) || g < -self.window_m {
-                    continue;
-                }
-                if best.is_none_or(|b| g.abs() < b.g.abs()) {
-                    best = Some(Facing {
-                        slave: s,
-                        edge: k,
-                        g,
-                        xi,
-                        n,
-                    });
-                }
+                ((0.0..=1.0).contains(&xi) && g >= -self.window_m).then_some(Facing {
+                    slave: s,
+                    edge: k,
+                    g,
+                    xi,
+                    n,
+                    weight: 1.0,
+                })
+            };
+            let Some(best) = (0..wall.edges.len())
+                .filter_map(facing)
+                .min_by(|a, b| a.g.abs().total_cmp(&b.g.abs()))
+            else {
+                continue;
+            };
+            // The segment across the vertex nearest the projection: if it also faces the
+            // node, the node is by a vertex where the wall turns towards it, and the
+            // nearest segment would flip between the two from one iterate to the next
+            // (their normals differ by the turn): share the node between them instead.
+            let e = wall.edges[best.edge];
+            let across = if best.xi > 0.5 {
+                wall.leaving[slot(e.b)]
+            } else {
+                wall.arriving[slot(e.a)]
+            };
+            match facing(across) {
+                Some(other) => out.extend([
+                    Facing {
+                        weight: 0.5,
+                        ..best
+                    },
+                    Facing {
+                        weight: 0.5,
+                        ..other
+                    },
+                ]),
+                None => out.push(best),
             }
-            out.extend(best);
         }
         out
     }
 
-    /// Add the penalty of the penetrating nodes at `u` to `fint`, and its tangent as
-    /// rank-one terms to `terms`.
+    /// Add the penalty of the penetrating nodes at `u` to `fint` and its tangent to the
+    /// values of `pattern` (which must couple the wall's nodes, [`wall_pairs`]).
     pub fn add(
         &self,
         wall: &LumenWall,
         mesh: &Mesh,
+        pattern: &Pattern,
         u: &[f64],
         fint: &mut [f64],
-        terms: &mut Vec<RankOne>,
+        values: &mut [f64],
     ) {
         let facing = self.facings(wall, mesh, u);
-        self.add_branch(wall, facing.iter().filter(|f| f.g < 0.0), fint, terms);
+        self.add_branch(
+            wall,
+            pattern,
+            facing.iter().filter(|f| f.g < 0.0),
+            fint,
+            values,
+        );
     }
 
     /// The penalty branch (force ε g ∇g, tangent ε ∇g ∇gᵀ) of the given facings.
     pub fn add_branch<'a>(
         &self,
         wall: &LumenWall,
+        pattern: &Pattern,
         facings: impl Iterator<Item = &'a Facing>,
         fint: &mut [f64],
-        terms: &mut Vec<RankOne>,
+        values: &mut [f64],
     ) {
         for f in facings {
             let grad = f.gradient(wall);
-            for &(dof, v) in &grad {
-                fint[dof] += self.penalty_pa * f.g * v;
+            let eps = f.weight * self.penalty_pa;
+            for (i, &(p, gp)) in grad.iter().enumerate() {
+                fint[p] += eps * f.g * gp;
+                for &(q, gq) in &grad[i..] {
+                    if let Some(slot) = pattern.slot_of(p, q) {
+                        values[slot] += eps * gp * gq;
+                    }
+                }
             }
-            terms.push(RankOne {
-                weight: self.penalty_pa,
-                entries: grad.to_vec(),
-            });
         }
     }
 
@@ -201,10 +255,11 @@ impl SelfContact {
     /// penetration, m.
     pub fn forces(&self, wall: &LumenWall, mesh: &Mesh, u: &[f64]) -> (Vec<f64>, f64) {
         let mut f = vec![0.0; mesh.dofs()];
-        let mut terms = Vec::new();
-        self.add(wall, mesh, u, &mut f, &mut terms);
-        for v in &mut f {
-            *v = -*v;
+        for fa in self.facings(wall, mesh, u).iter().filter(|f| f.g < 0.0) {
+            let eps = fa.weight * self.penalty_pa;
+            for (p, gp) in fa.gradient(wall) {
+                f[p] -= eps * fa.g * gp;
+            }
         }
         let deepest = self
             .facings(wall, mesh, u)
@@ -398,5 +453,146 @@ mod tests {
                 s.penetration
             );
         }
+    }
+
+    /// A ring (lumen radius 1.5 mm, wall 0.5 mm) pinched between its top and bottom outer
+    /// nodes, each moved by each of `pinch` in turn towards the centre, then, at the last
+    /// pinch, pressurized to `p_pa`. Per stage: the opening through the centre, the wall
+    /// nodes in contact, the deepest penetration and the walls' total contact force.
+    fn pinched_ring(how: LumenModel, pinch: &[f64], p_pa: f64) -> Vec<(f64, usize, f64, f64)> {
+        use crate::finite::Loads;
+        let (n_r, n_t) = (3, 64);
+        let m = crate::lumen_wall::ring(1.5e-3, 2e-3, n_r, n_t);
+        let fm = FiniteModel::new(&m, &[Material::new(400e3, 0.3)], Analysis::PlaneStrain)
+            .unwrap()
+            .with_lumen(how)
+            .unwrap();
+        let top = n_t / 4 * (n_r + 1) + n_r;
+        let bottom = 3 * n_t / 4 * (n_r + 1) + n_r;
+        let mut fixed = vec![false; m.dofs()];
+        for n in [top, bottom] {
+            fixed[2 * n] = true;
+            fixed[2 * n + 1] = true;
+        }
+        let zeros = vec![0.0; m.dofs()];
+        let mut u = zeros.clone();
+        let mut from = zeros.clone();
+        let mut stages: Vec<(Vec<f64>, f64)> = pinch
+            .iter()
+            .map(|&d| {
+                let mut t = zeros.clone();
+                t[2 * top + 1] = -d;
+                t[2 * bottom + 1] = d;
+                (t, 0.0)
+            })
+            .collect();
+        if let Some((last, _)) = stages.last().cloned() {
+            stages.push((last, p_pa));
+        }
+        let mut p_from = 0.0;
+        let mut out = Vec::new();
+        for (target, p) in &stages {
+            let loads = |target, lumen_pa| Loads {
+                target,
+                fext: &zeros,
+                indent_m: 0.0,
+                lumen_pa,
+            };
+            fm.advance_loads(
+                &mut u,
+                &fixed,
+                loads(&from, p_from),
+                loads(target, *p),
+                None,
+                4,
+            )
+            .unwrap();
+            from = target.clone();
+            p_from = *p;
+            let l = fm.lumen_state(&u, 1e-7).unwrap();
+            out.push((
+                l.opening_m.unwrap(),
+                l.contact_nodes,
+                l.penetration_m,
+                l.contact_force_n_per_m,
+            ));
+        }
+        out
+    }
+
+    #[test]
+    fn a_pinched_ring_closes_its_lumen_and_its_pressure_pushes_the_walls_apart() {
+        let pinch = [0.8e-3, 1.55e-3, 1.65e-3];
+        let p = 2e3;
+        let with = pinched_ring(LumenModel::default(), &pinch, p);
+        // Open at first, then closed through the centre: the walls touch and stop there.
+        assert!(
+            with[0].0 > 0.1e-3 && with[0].1 == 0 && with[0].3 == 0.0,
+            "{with:?}"
+        );
+        for s in &with[1..3] {
+            assert!(s.1 >= 2 && s.3 > 0.0, "{with:?}");
+            assert!(s.0.abs() < 1e-6 && s.2 < 1e-6, "{with:?}");
+        }
+        assert!(
+            with[2].1 > with[1].1 && with[2].3 > 10.0 * with[1].3,
+            "{with:?}"
+        );
+        // The lumen pressure (a follower on every wall edge, in contact or not) pushes the
+        // closed walls apart: less contact force, still no crossing.
+        assert!(with[3].3 < with[2].3 && with[3].2 < 1e-6, "{with:?}");
+        // Without the self-contact nothing stops the walls: they pass through each other.
+        let without = pinched_ring(
+            LumenModel {
+                self_contact: false,
+                ..LumenModel::default()
+            },
+            &pinch,
+            0.0,
+        );
+        assert!(without[2].0 < -0.05e-3, "{without:?}");
+    }
+
+    #[test]
+    fn the_wall_pattern_holds_every_contact_entry_and_the_element_ones_where_they_were() {
+        let m = crate::lumen_wall::ring(1.5e-3, 2e-3, 2, 24);
+        let wall = LumenWall::new(&m).unwrap();
+        let plain = Pattern::new(&m).unwrap();
+        let with = Pattern::with_pairs(&m, &wall_pairs(&wall)).unwrap();
+        // Every DOF pair of two wall nodes has a slot, and distinct pairs distinct slots.
+        let mut seen = std::collections::HashSet::new();
+        for &a in &wall.nodes {
+            for &b in &wall.nodes {
+                for (p, q) in [
+                    (2 * a, 2 * b),
+                    (2 * a + 1, 2 * b),
+                    (2 * a, 2 * b + 1),
+                    (2 * a + 1, 2 * b + 1),
+                ] {
+                    let s = with.slot_of(p, q).unwrap();
+                    assert_eq!(s, with.slot_of(q, p).unwrap());
+                    if p <= q {
+                        assert!(seen.insert(s), "slot {s} twice");
+                    }
+                }
+            }
+        }
+        // Without the pairs, two nodes across the lumen are not coupled.
+        let (a, b) = (wall.nodes[0], wall.nodes[wall.nodes.len() / 2]);
+        assert!(plain.slot_of(2 * a, 2 * b).is_none());
+        // Each element's entries are where the element's slot table says, in both.
+        for pat in [&plain, &with] {
+            for (e, el) in m.elements.iter().enumerate() {
+                let d = crate::sparse::element_dofs(el);
+                let mut i = 0;
+                for p in 0..8 {
+                    for q in p..8 {
+                        assert_eq!(pat.slot_of(d[p], d[q]), Some(pat.slots[e][i] as usize));
+                        i += 1;
+                    }
+                }
+            }
+        }
+        assert!(Pattern::with_pairs(&m, &[[0, m.nodes.len()]]).is_err());
     }
 }

@@ -213,8 +213,8 @@ pub struct Seed002 {
 }
 
 /// Diastole and systole of the seed-002 pulse.
-const DIASTOLE_S: f64 = 0.0;
-const SYSTOLE_S: f64 = 0.425;
+pub const DIASTOLE_S: f64 = 0.0;
+pub const SYSTOLE_S: f64 = 0.425;
 
 fn swing(run: &ModelRun) -> (Vec<f64>, f64) {
     let at = |t: f64| run.times.iter().find(|r| (r.t_s - t).abs() < 1e-12);
