@@ -144,12 +144,14 @@ fn main() -> Result<(), String> {
             },
         ),
     ];
-    if let Some(o) = &a.only {
-        if !models.iter().any(|(n, _)| n == o) {
-            return Err(format!(
-                "--only {o:?}: one of follower-contact, follower, dead"
-            ));
-        }
+    if let Some(o) = a
+        .only
+        .as_deref()
+        .filter(|o| !models.iter().any(|(n, _)| n == o))
+    {
+        return Err(format!(
+            "--only {o:?}: one of follower-contact, follower, dead"
+        ));
     }
     println!(
         "seed-002 artery, finite strain, refine {}, {} initial steps, {}{}; swing = systolic minus diastolic top von Mises over the artery",
@@ -180,6 +182,7 @@ fn main() -> Result<(), String> {
                 LoadPath::Together
             },
             unpressurized: a.unpressurized,
+            mesh: None,
         };
         let points = indentation_sweep(&indents, &o).map_err(|e| e.to_string())?;
         print(name, &points, &indents);

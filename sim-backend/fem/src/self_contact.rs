@@ -76,8 +76,11 @@ impl Facing {
     }
 }
 
+/// A segment's unit normal into the lumen, its tangent and its length squared.
+type Frame = ([f64; 2], [f64; 2], f64);
+
 /// Left unit normal (into the lumen) of the segment p → q, and its length squared.
-fn left_normal(p: [f64; 2], q: [f64; 2]) -> Option<([f64; 2], [f64; 2], f64)> {
+fn left_normal(p: [f64; 2], q: [f64; 2]) -> Option<Frame> {
     let t = [q[0] - p[0], q[1] - p[1]];
     let l2 = t[0] * t[0] + t[1] * t[1];
     if !(l2 > 0.0 && l2.is_finite()) {
@@ -125,7 +128,7 @@ impl SelfContact {
             .map(|&n| LumenWall::at(mesh, u, n))
             .collect();
         let slot = |n: usize| wall.nodes.partition_point(|&m| m < n);
-        let normals: Vec<Option<([f64; 2], [f64; 2], f64)>> = wall
+        let normals: Vec<Option<Frame>> = wall
             .edges
             .iter()
             .map(|e| left_normal(x[slot(e.a)], x[slot(e.b)]))
