@@ -120,7 +120,8 @@ impl SelfContact {
         }
     }
 
-    /// Each wall node's facing segment at `u`, if it has one (either sign of gap).
+    /// Each wall node's facing segment at `u` (or the two at a vertex it faces, weighted a
+    /// half each), if it has one; either sign of gap.
     pub fn facings(&self, wall: &LumenWall, mesh: &Mesh, u: &[f64]) -> Vec<Facing> {
         let x: Vec<[f64; 2]> = wall
             .nodes
