@@ -1,312 +1,71 @@
-//! Finite-strain option: compressible neo-Hookean, total Lagrangian Q4, Newton-Raphson with
-//! load stepping, step cut-backs and a backtracking line search.
+//! The finite-strain solve: Newton-Raphson on the neo-Hookean Q4 ([`super::neo_hookean`])
+//! with load stepping, step cut-backs and a backtracking line search.
 //!
-//! W = μ/2 (tr C - 3) - μ ln J + λ/2 (ln J)², which reduces to the linear law with the same
-//! E and ν at small strain. S = μ (I - C⁻¹) + λ ln J C⁻¹. Plane strain has C₃₃ = 1; plane
-//! stress finds C₃₃ at each Gauss point from S₃₃ = 0 (a scalar Newton solve) and condenses the
-//! tangent. Lumen pressure keeps its reference direction (dead load, no follower term), as
-//! the issue specifies. The rigid finger enters as a penalty on the deformed configuration
-//! ([`super::finger_penalty`]), its indentation ramped with the load.
-//!
-//! Plane strain near ν = 0.5 would lock under full 2x2 integration, as the linear element
-//! would without its B-bar. So, as there, the λ term is the mean dilatation's: per element,
-//! `V λ/2 (ln θ)²` with θ = v/V its deformed over reference area (the Q1/P0 mixed element
-//! with its constant pressure condensed out; Simo, Taylor and Pister 1985, Bonet and Wood
-//! section 8.6), while the μ terms stay at the Gauss points. It is an energy, so the tangent
-//! stays symmetric and the Cholesky solver serves; F-bar's consistent tangent is not
-//! symmetric. At small strain it is exactly the linear B-bar element. Plane stress does not
-//! lock (λ condenses to a bounded λ₂) and keeps the full rule.
+//! The rigid finger enters as a penalty on the deformed configuration
+//! ([`super::finger_penalty`]), its indentation ramped with the load. The lumen pressure is,
+//! by default, a follower load on the deformed wall ([`super::follower_pressure`]; exact and
+//! symmetric tangent on a closed lumen) and the wall is in frictionless self-contact
+//! ([`super::self_contact`]; its tangent couples nodes across the lumen, so the pattern then
+//! couples every pair of wall nodes), so that a lumen can close. Without
+//! [`FiniteModel::with_lumen`] the pressure keeps its reference direction (a dead load).
+
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
 use super::boundary::supports;
 use super::contact::Indenter;
-use super::element::{Q4, extrapolate_to_nodes};
+use super::element::Q4;
 use super::finger_penalty::{FingerPenalty, PENALTY_PER_MODULUS};
+use super::follower_pressure;
+use super::lumen_wall::LumenWall;
 use super::material::{Analysis, Material};
 use super::mesh::Mesh;
 use super::model::{Load, ModelFile};
+use super::neo_hookean::{element_cauchy, element_state};
 use super::recovery::top_stresses;
+use super::self_contact::{Facing, SELF_PENALTY_PER_MODULUS, SelfContact, wall_pairs};
 use super::solve_error::SolveError;
 use super::sparse::{Constrained, Pattern, element_dofs};
 
-/// Stress and tangent of the material at one point.
-#[derive(Debug, Clone, Copy)]
-pub struct PointState {
-    /// Second Piola-Kirchhoff (S11, S22, S12).
-    pub s: [f64; 3],
-    /// Voigt tangent dS/dE (engineering shear).
-    pub d: [[f64; 3]; 3],
-    /// 3-D Jacobian det F (includes the thickness stretch in plane stress).
-    pub j: f64,
-    /// Cauchy σ33.
-    pub sigma33: f64,
+/// How the lumen is modelled in finite strain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LumenModel {
+    /// The pressure acts on the deformed wall (else in its reference direction).
+    pub follower: bool,
+    /// The wall's frictionless self-contact.
+    pub self_contact: bool,
+    /// The self-contact's penalty per unit of the stiffest wall material's modulus.
+    pub penalty_per_modulus: f64,
 }
 
-/// Neo-Hookean response to the in-plane deformation gradient `f` (row i, column J).
-pub fn neo_hookean(m: &Material, analysis: Analysis, f: &[[f64; 2]; 2]) -> Option<PointState> {
-    neo_hookean_lame(m.mu_pa(), m.lambda_pa(), analysis, f)
+impl Default for LumenModel {
+    fn default() -> Self {
+        Self {
+            follower: true,
+            self_contact: true,
+            penalty_per_modulus: SELF_PENALTY_PER_MODULUS,
+        }
+    }
 }
 
-/// [`neo_hookean`] with the Lamé constants given (λ = 0 for the μ terms alone).
-fn neo_hookean_lame(
-    mu: f64,
-    lam: f64,
-    analysis: Analysis,
-    f: &[[f64; 2]; 2],
-) -> Option<PointState> {
-    let c11 = f[0][0] * f[0][0] + f[1][0] * f[1][0];
-    let c22 = f[0][1] * f[0][1] + f[1][1] * f[1][1];
-    let c12 = f[0][0] * f[0][1] + f[1][0] * f[1][1];
-    let det2 = c11 * c22 - c12 * c12;
-    let fdet = f[0][0] * f[1][1] - f[0][1] * f[1][0];
-    if !(det2 > 0.0 && fdet > 0.0) {
-        return None;
-    }
-    let c33 = match analysis {
-        Analysis::PlaneStrain => 1.0,
-        Analysis::PlaneStress => {
-            // μ (c33 - 1) + λ/2 (ln det2 + ln c33) = 0: increasing in c33, one root.
-            let mut c = 1.0f64;
-            let ln_d = det2.ln();
-            for _ in 0..50 {
-                let g = mu * (c - 1.0) + 0.5 * lam * (ln_d + c.ln());
-                let dg = mu + 0.5 * lam / c;
-                let step = g / dg;
-                let mut next = c - step;
-                if next <= 0.0 {
-                    next = 0.5 * c;
-                }
-                let done = (next - c).abs() <= 1e-14 * c;
-                c = next;
-                if done {
-                    break;
-                }
-            }
-            c
-        }
-    };
-    let ln_j = 0.5 * (det2.ln() + c33.ln());
-    let j = ln_j.exp();
-    let ci = [c22 / det2, c11 / det2, -c12 / det2]; // (Ci11, Ci22, Ci12)
-    let s = [
-        mu * (1.0 - ci[0]) + lam * ln_j * ci[0],
-        mu * (1.0 - ci[1]) + lam * ln_j * ci[1],
-        -mu * ci[2] + lam * ln_j * ci[2],
-    ];
-    // Voigt index -> (a, b).
-    let ab = [(0usize, 0usize), (1, 1), (0, 1)];
-    let cim = |a: usize, b: usize| -> f64 {
-        match (a, b) {
-            (0, 0) => ci[0],
-            (1, 1) => ci[1],
-            _ => ci[2],
-        }
-    };
-    let w = 2.0 * (mu - lam * ln_j);
-    let cond = match analysis {
-        Analysis::PlaneStrain => 0.0,
-        Analysis::PlaneStress => lam * lam / (lam + 2.0 * mu - 2.0 * lam * ln_j),
-    };
-    let mut d = [[0.0; 3]; 3];
-    for (i, &(a, b)) in ab.iter().enumerate() {
-        for (k, &(c, e)) in ab.iter().enumerate() {
-            let sym = 0.5 * (cim(a, c) * cim(b, e) + cim(a, e) * cim(b, c));
-            d[i][k] = (lam - cond) * cim(a, b) * cim(c, e) + w * sym;
-        }
-    }
-    let sigma33 = match analysis {
-        Analysis::PlaneStress => 0.0,
-        Analysis::PlaneStrain => lam * ln_j / j,
-    };
-    Some(PointState { s, d, j, sigma33 })
+#[derive(Debug)]
+struct Lumen {
+    wall: LumenWall,
+    follower: bool,
+    contact: Option<SelfContact>,
 }
 
-/// Deformation gradient at Gauss point `g` of element geometry `q` for element
-/// displacements `ue`.
-fn deformation_gradient(q: &Q4, g: usize, ue: &[f64; 8]) -> [[f64; 2]; 2] {
-    let b = &q.b[g];
-    let mut f = [[1.0, 0.0], [0.0, 1.0]];
-    for a in 0..4 {
-        let (dx, dy) = (b[0][2 * a], b[1][2 * a + 1]);
-        f[0][0] += ue[2 * a] * dx;
-        f[0][1] += ue[2 * a] * dy;
-        f[1][0] += ue[2 * a + 1] * dx;
-        f[1][1] += ue[2 * a + 1] * dy;
-    }
-    f
-}
-
-/// Internal force (8) and tangent (upper 36) of one element; `None` if a point inverts.
-fn element_state(
-    q: &Q4,
-    m: &Material,
-    analysis: Analysis,
-    ue: &[f64; 8],
-) -> Option<([f64; 8], [f64; 36])> {
-    let mut fint = [0.0; 8];
-    let mut k = [[0.0; 8]; 8];
-    let mean_dilatation = analysis == Analysis::PlaneStrain;
-    let lam_point = if mean_dilatation { 0.0 } else { m.lambda_pa() };
-    // ∂v/∂u (v the deformed area) and Σ w (N_a,1 N_b,2 - N_a,2 N_b,1), for the λ term.
-    let mut dv = [0.0; 8];
-    let mut v = 0.0;
-    let mut cross = [[0.0; 4]; 4];
-    for g in 0..4 {
-        let f = deformation_gradient(q, g, ue);
-        let st = neo_hookean_lame(m.mu_pa(), lam_point, analysis, &f)?;
-        let w = q.w[g];
-        let bq = &q.b[g];
-        let mut bnl = [[0.0; 8]; 3];
-        let mut dn = [[0.0; 2]; 4];
-        if mean_dilatation {
-            v += w * (f[0][0] * f[1][1] - f[0][1] * f[1][0]);
-        }
-        for a in 0..4 {
-            let (n1, n2) = (bq[0][2 * a], bq[1][2 * a + 1]);
-            dn[a] = [n1, n2];
-            if mean_dilatation {
-                // ∂J/∂F = cof F = [[F22, -F21], [-F12, F11]].
-                dv[2 * a] += w * (f[1][1] * n1 - f[1][0] * n2);
-                dv[2 * a + 1] += w * (-f[0][1] * n1 + f[0][0] * n2);
-            }
-            bnl[0][2 * a] = f[0][0] * n1;
-            bnl[0][2 * a + 1] = f[1][0] * n1;
-            bnl[1][2 * a] = f[0][1] * n2;
-            bnl[1][2 * a + 1] = f[1][1] * n2;
-            bnl[2][2 * a] = f[0][0] * n2 + f[0][1] * n1;
-            bnl[2][2 * a + 1] = f[1][0] * n2 + f[1][1] * n1;
-        }
-        for p in 0..8 {
-            fint[p] += w * (bnl[0][p] * st.s[0] + bnl[1][p] * st.s[1] + bnl[2][p] * st.s[2]);
-        }
-        // D B
-        let mut db = [[0.0; 8]; 3];
-        for r in 0..3 {
-            for p in 0..8 {
-                db[r][p] = st.d[r][0] * bnl[0][p] + st.d[r][1] * bnl[1][p] + st.d[r][2] * bnl[2][p];
-            }
-        }
-        for p in 0..8 {
-            for qq in p..8 {
-                k[p][qq] +=
-                    w * (bnl[0][p] * db[0][qq] + bnl[1][p] * db[1][qq] + bnl[2][p] * db[2][qq]);
-            }
-        }
-        // Geometric stiffness ∇N_a · S · ∇N_b on both components.
-        for a in 0..4 {
-            for b in a..4 {
-                let (x, y) = (dn[a], dn[b]);
-                if mean_dilatation {
-                    cross[a][b] += w * (x[0] * y[1] - x[1] * y[0]);
-                    cross[b][a] -= w * (x[0] * y[1] - x[1] * y[0]);
-                }
-                let gab = w
-                    * (x[0] * st.s[0] * y[0]
-                        + x[0] * st.s[2] * y[1]
-                        + x[1] * st.s[2] * y[0]
-                        + x[1] * st.s[1] * y[1]);
-                for c in 0..2 {
-                    let (p, qq) = (2 * a + c, 2 * b + c);
-                    k[p.min(qq)][p.max(qq)] += gab;
-                }
-            }
-        }
-    }
-    if mean_dilatation {
-        add_mean_dilatation(m.lambda_pa(), q.area, v, &dv, &cross, &mut fint, &mut k)?;
-    }
-    let mut up = [0.0; 36];
-    let mut i = 0;
-    for (p, row) in k.iter().enumerate() {
-        for &v in &row[p..] {
-            up[i] = v;
-            i += 1;
-        }
-    }
-    Some((fint, up))
-}
-
-/// The mean dilatation's λ term `V φ(θ)`, φ(θ) = λ/2 (ln θ)², θ = v/V: its force φ'(θ) ∂v/∂u
-/// and tangent φ''(θ)/V ∂v/∂u ⊗ ∂v/∂u + φ'(θ) ∂²v/∂u², where ∂²v/∂u_ia∂u_kb = ε_ik cross[a][b]
-/// (v is quadratic in u in 2-D). `None` if the element's area has inverted.
-fn add_mean_dilatation(
-    lam: f64,
-    area: f64,
-    v: f64,
-    dv: &[f64; 8],
-    cross: &[[f64; 4]; 4],
-    fint: &mut [f64; 8],
-    k: &mut [[f64; 8]; 8],
-) -> Option<()> {
-    let theta = v / area;
-    if !(theta > 0.0 && theta.is_finite()) {
-        return None;
-    }
-    let ln_t = theta.ln();
-    let d1 = lam * ln_t / theta;
-    let d2 = lam * (1.0 - ln_t) / (theta * theta);
-    for p in 0..8 {
-        fint[p] += d1 * dv[p];
-        for q in p..8 {
-            k[p][q] += d2 / area * dv[p] * dv[q];
-        }
-    }
-    // ε_12 = 1, ε_21 = -1, ε_11 = ε_22 = 0: only (x of a, y of b) pairs.
-    for a in 0..4 {
-        for b in 0..4 {
-            let (p, q) = (2 * a, 2 * b + 1);
-            k[p.min(q)][p.max(q)] += d1 * cross[a][b];
-        }
-    }
-    Some(())
-}
-
-/// The mean dilatation's pressure φ'(θ) = λ ln θ / θ of an element (Cauchy, added to every
-/// normal component), for plane strain; 0 in plane stress.
-fn mean_pressure(q: &Q4, m: &Material, analysis: Analysis, ue: &[f64; 8]) -> f64 {
-    if analysis != Analysis::PlaneStrain {
-        return 0.0;
-    }
-    let v: f64 = (0..4)
-        .map(|g| {
-            let f = deformation_gradient(q, g, ue);
-            q.w[g] * (f[0][0] * f[1][1] - f[0][1] * f[1][0])
-        })
-        .sum();
-    let theta = v / q.area;
-    m.lambda_pa() * theta.ln() / theta
-}
-
-/// Cauchy stress (σxx, σyy, σxy, σzz) at each Gauss point of an element.
-fn element_cauchy(q: &Q4, m: &Material, analysis: Analysis, ue: &[f64; 8]) -> [[f64; 4]; 4] {
-    let mut out = [[f64::NAN; 4]; 4];
-    let p = mean_pressure(q, m, analysis, ue);
-    let lam_point = if analysis == Analysis::PlaneStrain {
-        0.0
-    } else {
-        m.lambda_pa()
-    };
-    for (g, o) in out.iter_mut().enumerate() {
-        let f = deformation_gradient(q, g, ue);
-        if let Some(st) = neo_hookean_lame(m.mu_pa(), lam_point, analysis, &f) {
-            let s = [[st.s[0], st.s[2]], [st.s[2], st.s[1]]];
-            let mut fs = [[0.0; 2]; 2];
-            for i in 0..2 {
-                for jj in 0..2 {
-                    fs[i][jj] = f[i][0] * s[0][jj] + f[i][1] * s[1][jj];
-                }
-            }
-            let mut sig = [[0.0; 2]; 2];
-            for i in 0..2 {
-                for jj in 0..2 {
-                    sig[i][jj] = (fs[i][0] * f[jj][0] + fs[i][1] * f[jj][1]) / st.j;
-                }
-            }
-            *o = [sig[0][0] + p, sig[1][1] + p, sig[0][1], st.sigma33 + p];
-        }
-    }
-    out
+/// Work done by a model's solves so far (they run on several threads).
+#[derive(Debug, Default)]
+pub struct NewtonStats {
+    /// Newton iterations of converged load steps.
+    pub iterations: AtomicUsize,
+    /// Load steps that failed and were cut.
+    pub cuts: AtomicUsize,
+    /// Newton steps solved without the follower's load stiffness, because the tangent with
+    /// it was not positive definite.
+    pub tangents_held_back: AtomicUsize,
 }
 
 /// The nonlinear problem on one mesh.
@@ -318,14 +77,53 @@ pub struct FiniteModel<'m> {
     elements: Vec<Q4>,
     pattern: Pattern,
     symbolic: super::sparse::Symbolic,
+    /// The lumen's follower pressure and self-contact ([`FiniteModel::with_lumen`]); without
+    /// it the lumen pressure is the dead load `dead_unit` × p.
+    lumen: Option<Lumen>,
+    dead_unit: Vec<f64>,
+    /// A force per unit thickness below which a residual is round-off: 10⁻⁶ of the stiffest
+    /// modulus times the mesh's size (a stress-free rigid motion has no other force scale).
+    force_floor: f64,
+    pub stats: NewtonStats,
 }
 
 /// Newton settings.
 const MAX_NEWTON: usize = 30;
 const MAX_CUTS: u32 = 10;
 const TOL_R: f64 = 1e-8;
-/// Re-solves of one Newton step for nodes it would push into the finger.
+/// Re-solves of one Newton step for nodes it would push into the finger or through the
+/// opposite wall.
 const MAX_CLOSING_PASSES: usize = 6;
+
+/// One end of a load path: prescribed values on the fixed DOFs, dead forces, the finger's
+/// indentation and the lumen pressure.
+#[derive(Debug, Clone, Copy)]
+pub struct Loads<'a> {
+    pub target: &'a [f64],
+    pub fext: &'a [f64],
+    pub indent_m: f64,
+    pub lumen_pa: f64,
+}
+
+/// The loads at one load level.
+struct Level<'a> {
+    target: Vec<f64>,
+    fext: Vec<f64>,
+    finger: Option<(&'a FingerPenalty, f64)>,
+    lumen_pa: f64,
+}
+
+/// Forces and tangent at one configuration.
+struct State {
+    /// Internal forces, with the penalties'.
+    fint: Vec<f64>,
+    /// Applied forces: dead loads and the lumen pressure.
+    load: Vec<f64>,
+    /// Tangent values on the pattern (with the follower's load stiffness).
+    values: Vec<f64>,
+    /// The follower's share of `values`, to take out if the tangent with it is indefinite.
+    follower_values: Option<Vec<f64>>,
+}
 
 impl<'m> FiniteModel<'m> {
     pub fn new(
@@ -338,6 +136,8 @@ impl<'m> FiniteModel<'m> {
             .map(|e| Q4::new(&mesh.element_coords(e)).map_err(|_| SolveError::BadElement(e)))
             .collect::<Result<Vec<_>, _>>()?;
         let symbolic = pattern.symbolic()?;
+        let size = elements.iter().map(|q| q.area).sum::<f64>().sqrt();
+        let modulus = materials.iter().fold(0.0f64, |m, mat| m.max(mat.e_pa));
         Ok(Self {
             mesh,
             materials: materials.to_vec(),
@@ -345,7 +145,43 @@ impl<'m> FiniteModel<'m> {
             elements,
             pattern,
             symbolic,
+            lumen: None,
+            dead_unit: mesh.lumen_pressure_forces(1.0),
+            force_floor: 1e-6 * modulus * size,
+            stats: NewtonStats::default(),
         })
+    }
+
+    /// Model the lumen (if the mesh has one) as `how` says. The self-contact's penalty is
+    /// scaled by the stiffest material on the wall.
+    pub fn with_lumen(mut self, how: LumenModel) -> Result<Self, SolveError> {
+        if self.mesh.lumen_edges.is_empty() || !(how.follower || how.self_contact) {
+            return Ok(self);
+        }
+        let wall = LumenWall::new(self.mesh)?;
+        let contact = if how.self_contact {
+            let modulus = wall.edges.iter().fold(0.0f64, |m, e| {
+                let region = self.mesh.region[e.element] as usize;
+                m.max(self.materials.get(region).map_or(0.0, |mat| mat.e_pa))
+            });
+            // The contact couples wall nodes across the lumen: a pattern (and its symbolic
+            // factorization) with every pair of them.
+            self.pattern = Pattern::with_pairs(self.mesh, &wall_pairs(&wall))?;
+            self.symbolic = self.pattern.symbolic()?;
+            Some(SelfContact::for_wall(
+                &wall,
+                self.mesh,
+                how.penalty_per_modulus * modulus,
+            ))
+        } else {
+            None
+        };
+        self.lumen = Some(Lumen {
+            wall,
+            follower: how.follower,
+            contact,
+        });
+        Ok(self)
     }
 
     fn gather(&self, e: usize, u: &[f64]) -> [f64; 8] {
@@ -357,9 +193,8 @@ impl<'m> FiniteModel<'m> {
         ue
     }
 
-    /// Internal forces and tangent values at `u` (with the finger's penalty, if any, at its
-    /// indentation); `None` if any element inverts.
-    fn state(&self, u: &[f64], finger: Finger<'_>) -> Option<(Vec<f64>, Vec<f64>)> {
+    /// Forces and tangent at `u` under the loads of `level`; `None` if any element inverts.
+    fn state(&self, u: &[f64], level: &Level<'_>) -> Option<State> {
         let per: Option<Vec<([f64; 8], [f64; 36])>> = (0..self.mesh.elements.len())
             .into_par_iter()
             .map(|e| {
@@ -376,8 +211,27 @@ impl<'m> FiniteModel<'m> {
             }
             ke.push(k);
         }
+        let mut load = level.fext.clone();
+        let mut follower_values = None;
+        let p = level.lumen_pa;
+        match &self.lumen {
+            Some(l) if l.follower => {
+                follower_pressure::add_forces(&l.wall, self.mesh, u, p, &mut load);
+                if p != 0.0 {
+                    let mut kp = vec![[0.0; 36]; ke.len()];
+                    follower_pressure::add_tangent(&l.wall, p, &mut kp);
+                    follower_pressure::add_tangent(&l.wall, p, &mut ke);
+                    follower_values = Some(self.pattern.assemble(&kp));
+                }
+            }
+            _ => {
+                for (f, d) in load.iter_mut().zip(&self.dead_unit) {
+                    *f += p * d;
+                }
+            }
+        }
         let mut values = self.pattern.assemble(&ke);
-        if let Some((f, indent_m)) = finger {
+        if let Some((f, indent_m)) = level.finger {
             f.add(
                 self.mesh,
                 &self.pattern,
@@ -387,11 +241,24 @@ impl<'m> FiniteModel<'m> {
                 &mut values,
             );
         }
-        Some((fint, values))
+        if let Some(Lumen {
+            wall,
+            contact: Some(c),
+            ..
+        }) = &self.lumen
+        {
+            c.add(wall, self.mesh, &self.pattern, u, &mut fint, &mut values);
+        }
+        Some(State {
+            fint,
+            load,
+            values,
+            follower_values,
+        })
     }
 
-    fn residual_norm(fixed: &[bool], fext: &[f64], fint: &[f64]) -> f64 {
-        fext.iter()
+    fn residual_norm(fixed: &[bool], load: &[f64], fint: &[f64]) -> f64 {
+        load.iter()
             .zip(fint)
             .zip(fixed)
             .filter(|(_, f)| !**f)
@@ -400,80 +267,131 @@ impl<'m> FiniteModel<'m> {
             .sqrt()
     }
 
-    /// One Newton direction. With a finger, nodes the step would push into the tip are
-    /// given the penalty branch they are entering and the step is recomputed (a few times
-    /// at most; the set only grows).
-    #[allow(clippy::too_many_arguments)]
+    /// Solve the Newton system with tangent `values`; if it is not positive definite and
+    /// holds the follower's load stiffness, again without it.
+    fn solve_tangent(
+        &self,
+        values: &[f64],
+        follower_values: Option<&[f64]>,
+        fixed: &[bool],
+        rhs: &[f64],
+        du_c: &[f64],
+    ) -> Result<Vec<f64>, SolveError> {
+        match (
+            Constrained::new(&self.pattern, &self.symbolic, values, fixed),
+            follower_values,
+        ) {
+            (Ok(c), _) => c.solve(rhs, du_c),
+            (Err(SolveError::NotPositiveDefinite), Some(kp)) => {
+                self.stats
+                    .tangents_held_back
+                    .fetch_add(1, Ordering::Relaxed);
+                let held: Vec<f64> = values.iter().zip(kp).map(|(a, b)| a - b).collect();
+                Constrained::new(&self.pattern, &self.symbolic, &held, fixed)?.solve(rhs, du_c)
+            }
+            (Err(e), _) => Err(e),
+        }
+    }
+
+    /// One Newton direction. Nodes the step would push into the finger or through the
+    /// opposite wall are given the penalty branch they are entering and the step is
+    /// recomputed (a few times at most; the sets only grow).
     fn newton_step(
         &self,
         x: &[f64],
-        fint: &[f64],
-        kv: &[f64],
+        st: &State,
         fixed: &[bool],
-        fext: &[f64],
         du_c: &[f64],
-        finger: Finger<'_>,
+        level: &Level<'_>,
     ) -> Result<Vec<f64>, SolveError> {
         let solve = |fi: &[f64], k: &[f64]| -> Result<Vec<f64>, SolveError> {
-            let rhs: Vec<f64> = fext.iter().zip(fi).map(|(a, b)| a - b).collect();
-            Constrained::new(&self.pattern, &self.symbolic, k, fixed)?.solve(&rhs, du_c)
+            let rhs: Vec<f64> = st.load.iter().zip(fi).map(|(a, b)| a - b).collect();
+            self.solve_tangent(k, st.follower_values.as_deref(), fixed, &rhs, du_c)
         };
-        let mut du = solve(fint, kv)?;
-        let Some((f, indent_m)) = finger else {
+        let mut du = solve(&st.fint, &st.values)?;
+        let contact = match &self.lumen {
+            Some(Lumen {
+                wall,
+                contact: Some(c),
+                ..
+            }) => Some((wall, c)),
+            _ => None,
+        };
+        if level.finger.is_none() && contact.is_none() {
             return Ok(du);
-        };
+        }
         let mut extra = vec![false; self.mesh.top.len()];
+        let mut closing_walls: Vec<Facing> = Vec::new();
         for _ in 0..MAX_CLOSING_PASSES {
-            let closing = f.closing(self.mesh, x, &du, indent_m);
-            if closing.iter().zip(&extra).all(|(c, e)| !c || *e) {
+            let mut grew = false;
+            if let Some((f, indent_m)) = level.finger {
+                let closing = f.closing(self.mesh, x, &du, indent_m);
+                for (e, c) in extra.iter_mut().zip(&closing) {
+                    grew |= *c && !*e;
+                    *e |= *c;
+                }
+            }
+            if let Some((wall, c)) = contact {
+                for f in c.closing(wall, self.mesh, x, &du) {
+                    if !closing_walls
+                        .iter()
+                        .any(|g| g.slave == f.slave && g.edge == f.edge)
+                    {
+                        closing_walls.push(f);
+                        grew = true;
+                    }
+                }
+            }
+            if !grew {
                 break;
             }
-            for (e, c) in extra.iter_mut().zip(&closing) {
-                *e |= *c;
+            let mut fi = st.fint.clone();
+            let mut k = st.values.clone();
+            if let Some((f, indent_m)) = level.finger {
+                f.add_closing(
+                    self.mesh,
+                    &self.pattern,
+                    x,
+                    indent_m,
+                    &extra,
+                    &mut fi,
+                    &mut k,
+                );
             }
-            let mut fi = fint.to_vec();
-            let mut k = kv.to_vec();
-            f.add_closing(
-                self.mesh,
-                &self.pattern,
-                x,
-                indent_m,
-                &extra,
-                &mut fi,
-                &mut k,
-            );
+            if let Some((wall, c)) = contact {
+                c.add_branch(wall, &self.pattern, closing_walls.iter(), &mut fi, &mut k);
+            }
             du = solve(&fi, &k)?;
         }
         Ok(du)
     }
 
-    /// Newton at one load level: prescribed `target` on fixed DOFs, external `fext`.
-    /// Updates `u` in place only on success.
+    /// Newton at one load level. Updates `u` in place only on success.
     fn equilibrate(
         &self,
         u: &mut Vec<f64>,
         fixed: &[bool],
-        target: &[f64],
-        fext: &[f64],
-        finger: Finger<'_>,
+        level: &Level<'_>,
     ) -> Result<usize, SolveError> {
+        let target = &level.target;
         let mut x = u.clone();
-        let (mut fint, mut kv) = self.state(&x, finger).ok_or(SolveError::NonFinite)?;
+        let mut st = self.state(&x, level).ok_or(SolveError::NonFinite)?;
         // Force scale: applied loads and support reactions at the current iterate.
-        let scale = |fint: &[f64]| -> f64 {
-            let ext: f64 = fext.iter().map(|v| v * v).sum();
-            let reac: f64 = fint
+        let scale = |st: &State| -> f64 {
+            let ext: f64 = st.load.iter().map(|v| v * v).sum();
+            let reac: f64 = st
+                .fint
                 .iter()
                 .zip(fixed)
                 .filter(|(_, f)| **f)
                 .map(|(v, _)| v * v)
                 .sum();
-            ext.max(reac).sqrt().max(1e-30)
+            ext.max(reac).sqrt().max(self.force_floor).max(1e-30)
         };
         for it in 0..MAX_NEWTON {
             let du_c: Vec<f64> = target.iter().zip(&x).map(|(t, xi)| t - xi).collect();
-            let du = self.newton_step(&x, &fint, &kv, fixed, fext, &du_c, finger)?;
-            let r0 = Self::residual_norm(fixed, fext, &fint);
+            let du = self.newton_step(&x, &st, fixed, &du_c, level)?;
+            let r0 = Self::residual_norm(fixed, &st.load, &st.fint);
             let constrained_jump = du_c.iter().zip(fixed).any(|(d, f)| *f && d.abs() > 0.0);
             // Backtracking: accept the first step that keeps every element valid and, once
             // the supports are in place, reduces the residual.
@@ -481,19 +399,17 @@ impl<'m> FiniteModel<'m> {
             let mut accepted = None;
             for _ in 0..8 {
                 let trial: Vec<f64> = x.iter().zip(&du).map(|(a, d)| a + alpha * d).collect();
-                if let Some((fi, k)) = self.state(&trial, finger) {
-                    let r1 = Self::residual_norm(fixed, fext, &fi);
-                    if constrained_jump
-                        || r1 < (1.0 - 1e-4 * alpha) * r0
-                        || r1 <= TOL_R * scale(&fi)
+                if let Some(s) = self.state(&trial, level) {
+                    let r1 = Self::residual_norm(fixed, &s.load, &s.fint);
+                    if constrained_jump || r1 < (1.0 - 1e-4 * alpha) * r0 || r1 <= TOL_R * scale(&s)
                     {
-                        accepted = Some((trial, fi, k, r1));
+                        accepted = Some((trial, s, r1));
                         break;
                     }
                 }
                 alpha *= 0.5;
             }
-            let Some((trial, fi, k, r1)) = accepted else {
+            let Some((trial, s, r1)) = accepted else {
                 return Err(SolveError::NoConvergence(format!(
                     "line search failed at Newton iteration {it}"
                 )));
@@ -501,14 +417,13 @@ impl<'m> FiniteModel<'m> {
             let du_norm = du.iter().map(|v| v * v).sum::<f64>().sqrt() * alpha;
             let u_norm = trial.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-30);
             x = trial;
-            fint = fi;
-            kv = k;
+            st = s;
             let supports_done = target
                 .iter()
                 .zip(&x)
                 .zip(fixed)
                 .all(|((t, xi), f)| !*f || (t - xi).abs() <= 1e-12 * u_norm.max(1e-12));
-            if supports_done && r1 <= TOL_R * scale(&fint) && du_norm <= 1e-6 * u_norm {
+            if supports_done && r1 <= TOL_R * scale(&st) && du_norm <= 1e-6 * u_norm {
                 *u = x;
                 return Ok(it + 1);
             }
@@ -549,6 +464,38 @@ impl<'m> FiniteModel<'m> {
         finger: Option<(&FingerPenalty, f64, f64)>,
         steps: u32,
     ) -> Result<(), SolveError> {
+        let (indent_a, indent_b) = finger.map_or((0.0, 0.0), |(_, a, b)| (a, b));
+        self.advance_loads(
+            u,
+            fixed,
+            Loads {
+                target: target_a,
+                fext: fext_a,
+                indent_m: indent_a,
+                lumen_pa: 0.0,
+            },
+            Loads {
+                target: target_b,
+                fext: fext_b,
+                indent_m: indent_b,
+                lumen_pa: 0.0,
+            },
+            finger.map(|(f, _, _)| f),
+            steps,
+        )
+    }
+
+    /// Move from loads `a` to `b` (every load interpolated linearly) in `steps`
+    /// increments, halving a failed increment up to `MAX_CUTS` times.
+    pub fn advance_loads(
+        &self,
+        u: &mut Vec<f64>,
+        fixed: &[bool],
+        a: Loads<'_>,
+        b: Loads<'_>,
+        finger: Option<&FingerPenalty>,
+        steps: u32,
+    ) -> Result<(), SolveError> {
         let lerp = |a: &[f64], b: &[f64], s: f64| -> Vec<f64> {
             a.iter().zip(b).map(|(x, y)| x + s * (y - x)).collect()
         };
@@ -557,11 +504,17 @@ impl<'m> FiniteModel<'m> {
         let mut cuts = 0;
         while s < 1.0 - 1e-12 {
             let next = (s + ds).min(1.0);
-            let target = lerp(target_a, target_b, next);
-            let fext = lerp(fext_a, fext_b, next);
-            let at = finger.map(|(f, a, b)| (f, a + next * (b - a)));
-            match self.equilibrate(u, fixed, &target, &fext, at) {
-                Ok(_) => {
+            let level = Level {
+                target: lerp(a.target, b.target, next),
+                fext: lerp(a.fext, b.fext, next),
+                finger: finger.map(|f| (f, a.indent_m + next * (b.indent_m - a.indent_m))),
+                lumen_pa: a.lumen_pa + next * (b.lumen_pa - a.lumen_pa),
+            };
+            match self.equilibrate(u, fixed, &level) {
+                Ok(iterations) => {
+                    self.stats
+                        .iterations
+                        .fetch_add(iterations, Ordering::Relaxed);
                     s = next;
                     if cuts > 0 {
                         ds *= 1.5;
@@ -569,6 +522,7 @@ impl<'m> FiniteModel<'m> {
                 }
                 Err(e) => {
                     cuts += 1;
+                    self.stats.cuts.fetch_add(1, Ordering::Relaxed);
                     if cuts > MAX_CUTS {
                         return Err(SolveError::NoConvergence(format!(
                             "load step cut {MAX_CUTS} times at load fraction {s:.4}: {e}"
@@ -581,6 +535,20 @@ impl<'m> FiniteModel<'m> {
         Ok(())
     }
 
+    /// The elements' internal forces at `u` (no penalties or loads): on the fixed DOFs at
+    /// equilibrium, the support reactions. `None` if an element inverts.
+    pub fn internal_forces(&self, u: &[f64]) -> Option<Vec<f64>> {
+        let mut fint = vec![0.0; self.mesh.dofs()];
+        for e in 0..self.mesh.elements.len() {
+            let m = &self.materials[self.mesh.region[e] as usize];
+            let (f, _) = element_state(&self.elements[e], m, self.analysis, &self.gather(e, u))?;
+            for (i, &d) in element_dofs(&self.mesh.elements[e]).iter().enumerate() {
+                fint[d] += f[i];
+            }
+        }
+        Some(fint)
+    }
+
     /// Recovered Cauchy stresses at the top nodes.
     pub fn top_cauchy(&self, u: &[f64]) -> Vec<[f64; 4]> {
         top_stresses(self.mesh, |e| {
@@ -588,10 +556,56 @@ impl<'m> FiniteModel<'m> {
             element_cauchy(&self.elements[e], m, self.analysis, &self.gather(e, u))
         })
     }
+
+    /// The lumen's shape and contact at `u` (`None` without [`FiniteModel::with_lumen`]):
+    /// opening along the vertical line at `x_m`, area, and the self-contact.
+    pub fn lumen_state(&self, u: &[f64], x_m: f64) -> Option<LumenState> {
+        let l = self.lumen.as_ref()?;
+        let (contact_nodes, penetration_m, contact_force_n_per_m) = match &l.contact {
+            Some(c) => {
+                let (f, deepest) = c.forces(&l.wall, self.mesh, u);
+                let mut active: Vec<usize> = c
+                    .facings(&l.wall, self.mesh, u)
+                    .iter()
+                    .filter(|f| f.g < 0.0)
+                    .map(|f| f.slave)
+                    .collect();
+                active.dedup();
+                let active = active.len();
+                // Half the sum of |force| over the nodes: each pair pushes both ways.
+                let total = 0.5
+                    * f.chunks_exact(2)
+                        .map(|v| (v[0] * v[0] + v[1] * v[1]).sqrt())
+                        .sum::<f64>();
+                (active, deepest, total)
+            }
+            None => (0, 0.0, 0.0),
+        };
+        Some(LumenState {
+            opening_m: l.wall.opening_at(self.mesh, u, x_m),
+            area_m2: l.wall.area(self.mesh, u),
+            contact_nodes,
+            penetration_m,
+            contact_force_n_per_m,
+        })
+    }
 }
 
-/// The finger's penalty and indentation at one load level.
-type Finger<'a> = Option<(&'a FingerPenalty, f64)>;
+/// The lumen at one output time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LumenState {
+    /// Opening along the vertical through the feature's centre (negative if the walls
+    /// overlap there), m.
+    pub opening_m: Option<f64>,
+    /// Enclosed area, m².
+    pub area_m2: f64,
+    /// Wall nodes in self-contact.
+    pub contact_nodes: usize,
+    /// Deepest penetration of a wall node behind the opposite wall, m.
+    pub penetration_m: f64,
+    /// Total force the walls press on each other with, N per m of thickness.
+    pub contact_force_n_per_m: f64,
+}
 
 /// One output time of a finite-strain solve.
 #[derive(Debug, Clone)]
@@ -602,6 +616,8 @@ pub struct TopState {
     pub u: Vec<f64>,
     /// The finger's deepest penetration at this time (0 without a finger), m.
     pub penetration_m: f64,
+    /// The lumen, when it is modelled with [`FiniteModel::with_lumen`].
+    pub lumen: Option<LumenState>,
 }
 
 /// The finger of a model's load, as a penalty scaled by the tissue's modulus.
@@ -632,40 +648,98 @@ pub fn finger_of(model: &ModelFile) -> Option<(FingerPenalty, f64)> {
     }
 }
 
-/// Solve a model in finite strain: ramp the platen or the finger and the first time's lumen
-/// pressure from zero in `steps` increments, then follow the pressure through the output
-/// times.
+/// Solve a model in finite strain with the lumen's follower pressure and self-contact
+/// ([`solve_times_with`] and [`LumenModel::default`]).
 pub fn solve_times(
     model: &ModelFile,
     mesh: &Mesh,
     steps: u32,
 ) -> Result<Vec<TopState>, SolveError> {
-    let fm = FiniteModel::new(mesh, &model.materials(), model.analysis)?;
+    solve_times_with(
+        model,
+        mesh,
+        steps,
+        LumenModel::default(),
+        LoadPath::Together,
+    )
+    .map(|(states, _)| states)
+}
+
+/// The order in which a finite-strain solve applies its loads before the first output time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LoadPath {
+    /// The platen or finger and the first time's lumen pressure ramped together: the artery
+    /// is pressurized all the way in.
+    #[default]
+    Together,
+    /// The platen or finger first with no lumen pressure, then the pressure: paper 002's
+    /// "for the first 1 second, the finger reached on maximum indentation and, for the next
+    /// 1 second, the pressure data was applied".
+    IndentFirst,
+}
+
+/// Solve a model in finite strain: bring the platen or the finger and the first time's lumen
+/// pressure from zero in `steps` increments (in the order `path` says), then follow the
+/// pressure through the output times. Also returns the Newton iterations, cuts and held-back
+/// tangents it took.
+pub fn solve_times_with(
+    model: &ModelFile,
+    mesh: &Mesh,
+    steps: u32,
+    lumen: LumenModel,
+    path: LoadPath,
+) -> Result<(Vec<TopState>, [usize; 3]), SolveError> {
+    let fm = FiniteModel::new(mesh, &model.materials(), model.analysis)?.with_lumen(lumen)?;
     let (fixed, target) = supports(mesh, model);
     let finger = finger_of(model);
-    let unit = mesh.lumen_pressure_forces(1.0);
+    let indent = finger.as_ref().map_or(0.0, |(_, d)| *d);
     let zeros = vec![0.0; mesh.dofs()];
+    let x_centre = mesh.feature_centre.map_or(model.x_origin_m(), |c| c[0]);
     let mut u = zeros.clone();
     let mut out = Vec::new();
-    let mut prev: Option<Vec<f64>> = None;
+    let loads = |target, indent_m, lumen_pa| Loads {
+        target,
+        fext: &zeros,
+        indent_m,
+        lumen_pa,
+    };
+    let finger_ref = finger.as_ref().map(|(f, _)| f);
+    let mut prev: Option<f64> = None;
     for &t in &model.times_s {
         let p = model.pressure_at(t);
-        let fext: Vec<f64> = unit.iter().map(|f| f * p).collect();
-        match &prev {
-            None => fm.advance_with_finger(
+        match (prev, path) {
+            (None, LoadPath::Together) => fm.advance_loads(
                 &mut u,
                 &fixed,
-                (&zeros, &zeros),
-                (&target, &fext),
-                finger.as_ref().map(|(f, d)| (f, 0.0, *d)),
+                loads(&zeros, 0.0, 0.0),
+                loads(&target, indent, p),
+                finger_ref,
                 steps,
             )?,
-            Some(fa) => fm.advance_with_finger(
+            (None, LoadPath::IndentFirst) => {
+                fm.advance_loads(
+                    &mut u,
+                    &fixed,
+                    loads(&zeros, 0.0, 0.0),
+                    loads(&target, indent, 0.0),
+                    finger_ref,
+                    steps,
+                )?;
+                fm.advance_loads(
+                    &mut u,
+                    &fixed,
+                    loads(&target, indent, 0.0),
+                    loads(&target, indent, p),
+                    finger_ref,
+                    steps,
+                )?;
+            }
+            (Some(pa), _) => fm.advance_loads(
                 &mut u,
                 &fixed,
-                (&target, fa),
-                (&target, &fext),
-                finger.as_ref().map(|(f, d)| (f, *d, *d)),
+                loads(&target, indent, pa),
+                loads(&target, indent, p),
+                finger_ref,
                 2,
             )?,
         }
@@ -675,83 +749,25 @@ pub fn solve_times(
         out.push(TopState {
             t_s: t,
             stresses: fm.top_cauchy(&u),
+            lumen: fm.lumen_state(&u, x_centre),
             u: u.clone(),
             penetration_m,
         });
-        prev = Some(fext);
+        prev = Some(p);
     }
-    Ok(out)
-}
-
-/// Nodal values of a Gauss-point field on one element (exposed for tests).
-pub fn nodal(at_gauss: &[[f64; 4]; 4]) -> [[f64; 4]; 4] {
-    extrapolate_to_nodes(at_gauss)
+    let s = &fm.stats;
+    let counts = [
+        s.iterations.load(Ordering::Relaxed),
+        s.cuts.load(Ordering::Relaxed),
+        s.tangents_held_back.load(Ordering::Relaxed),
+    ];
+    Ok((out, counts))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn fd_check(analysis: Analysis) {
-        let m = Material::new(15e3, 0.45);
-        let f = [[1.1, 0.15], [-0.05, 0.85]];
-        let st = neo_hookean(&m, analysis, &f).unwrap();
-        // dS/dE by central differences on C = FᵀF perturbed along each Voigt direction.
-        let c = |f: &[[f64; 2]; 2]| {
-            [
-                f[0][0] * f[0][0] + f[1][0] * f[1][0],
-                f[0][1] * f[0][1] + f[1][1] * f[1][1],
-                f[0][0] * f[0][1] + f[1][0] * f[1][1],
-            ]
-        };
-        // Build F from a symmetric C via F = sqrt(C) (2x2 closed form) so perturbations in E
-        // map to valid F.
-        let f_of_c = |cv: [f64; 3]| {
-            let (a, d, b) = (cv[0], cv[1], cv[2]);
-            let s = (a * d - b * b).sqrt();
-            let t = (a + d + 2.0 * s).sqrt();
-            [[(a + s) / t, b / t], [b / t, (d + s) / t]]
-        };
-        let c0 = c(&f);
-        let h = 1e-6;
-        for k in 0..3 {
-            let mut cp = c0;
-            let mut cm = c0;
-            // E = (C - I)/2; Voigt strain uses 2 E12 = C12.
-            let dc = if k == 2 { h } else { 2.0 * h };
-            cp[k] += dc;
-            cm[k] -= dc;
-            let sp = neo_hookean(&m, analysis, &f_of_c(cp)).unwrap().s;
-            let sm = neo_hookean(&m, analysis, &f_of_c(cm)).unwrap().s;
-            for r in 0..3 {
-                let fd = (sp[r] - sm[r]) / (2.0 * h);
-                assert!(
-                    (fd - st.d[r][k]).abs() < 1e-4 * st.d[0][0].abs(),
-                    "{analysis:?} D[{r}][{k}] = {} vs fd {fd}",
-                    st.d[r][k]
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn tangent_matches_finite_differences() {
-        fd_check(Analysis::PlaneStrain);
-        fd_check(Analysis::PlaneStress);
-    }
-
-    #[test]
-    fn small_strain_limit_is_the_linear_law() {
-        let m = Material::new(1e4, 0.3);
-        for analysis in [Analysis::PlaneStress, Analysis::PlaneStrain] {
-            let st = neo_hookean(&m, analysis, &[[1.0, 0.0], [0.0, 1.0]]).unwrap();
-            let l2 = m.lambda_2d_pa(analysis);
-            assert!((st.d[0][0] - (l2 + 2.0 * m.mu_pa())).abs() < 1e-6);
-            assert!((st.d[0][1] - l2).abs() < 1e-6);
-            assert!((st.d[2][2] - m.mu_pa()).abs() < 1e-6);
-            assert!(st.s.iter().all(|v| v.abs() < 1e-9));
-        }
-    }
+    use crate::neo_hookean::neo_hookean;
 
     #[test]
     fn uniaxial_plane_stress_compression_matches_the_closed_form() {
@@ -809,61 +825,6 @@ mod tests {
         // It is stiffer than the linear answer E·ε in compression? Not necessarily; it must
         // differ from it, which is the point of the option.
         assert!((sigma_yy.abs() - 15e3 * 0.25).abs() > 0.01 * 15e3 * 0.25);
-    }
-
-    /// A distorted element and a displacement that stretches, shears and rotates it.
-    fn distorted() -> (Q4, [f64; 8]) {
-        let q = Q4::new(&[
-            [0.0, 0.0],
-            [1.1e-3, 0.1e-3],
-            [1.0e-3, 0.9e-3],
-            [-0.1e-3, 1.2e-3],
-        ])
-        .unwrap();
-        let ue = [
-            0.0, 0.0, 0.15e-3, 0.05e-3, 0.1e-3, -0.12e-3, -0.05e-3, -0.2e-3,
-        ];
-        (q, ue)
-    }
-
-    #[test]
-    fn the_mean_dilatation_tangent_is_the_derivative_of_its_forces() {
-        let m = Material::new(15e3, 0.4999);
-        let (q, ue) = distorted();
-        let (_, k) = element_state(&q, &m, Analysis::PlaneStrain, &ue).unwrap();
-        let h = 1e-9;
-        let mut i = 0;
-        for p in 0..8 {
-            for c in p..8 {
-                let mut up = ue;
-                let mut um = ue;
-                up[c] += h;
-                um[c] -= h;
-                let fp = element_state(&q, &m, Analysis::PlaneStrain, &up).unwrap().0;
-                let fm = element_state(&q, &m, Analysis::PlaneStrain, &um).unwrap().0;
-                let fd = (fp[p] - fm[p]) / (2.0 * h);
-                assert!(
-                    (fd - k[i]).abs() < 1e-5 * k[0].abs(),
-                    "K[{p}][{c}] = {} vs fd {fd}",
-                    k[i]
-                );
-                i += 1;
-            }
-        }
-    }
-
-    #[test]
-    fn at_rest_the_plane_strain_tangent_is_the_linear_b_bar_element() {
-        let (q, _) = distorted();
-        for nu in [0.3, 0.4999] {
-            let m = Material::new(15e3, nu);
-            let (f, k) = element_state(&q, &m, Analysis::PlaneStrain, &[0.0; 8]).unwrap();
-            let lin = q.stiffness_upper(&m, Analysis::PlaneStrain);
-            assert!(f.iter().all(|v| v.abs() < 1e-12));
-            for (a, b) in k.iter().zip(&lin) {
-                assert!((a - b).abs() < 1e-9 * lin[0].abs(), "ν {nu}: {a} vs {b}");
-            }
-        }
     }
 
     /// Seed 001's healthy artery in plane strain at ν = 0.4999 under a hundredth of its load

@@ -13,10 +13,12 @@
 #![allow(clippy::needless_range_loop)] // index loops read like the formulas
 
 pub mod boundary;
+pub mod collapse;
 pub mod contact;
 pub mod element;
 pub mod finger_penalty;
 pub mod finite;
+pub mod follower_pressure;
 pub mod gmsh;
 pub mod gmsh_build;
 pub mod gmsh_check;
@@ -25,13 +27,16 @@ pub mod gmsh_names;
 pub mod kernel;
 pub mod linear;
 pub mod llt;
+pub mod lumen_wall;
 pub mod material;
 pub mod mesh;
 pub mod mesher;
 pub mod model;
+pub mod neo_hookean;
 pub mod nested_dissection;
 pub mod recovery;
 pub mod run;
+pub mod self_contact;
 pub mod solve_error;
 pub mod sparse;
 pub mod split_cholesky;

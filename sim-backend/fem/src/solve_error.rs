@@ -15,4 +15,6 @@ pub enum SolveError {
     BadElement(usize),
     #[error("{0}")]
     NoConvergence(String),
+    #[error("the lumen's wall: {0}")]
+    BadLumen(String),
 }

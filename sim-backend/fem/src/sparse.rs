@@ -112,7 +112,18 @@ fn csr_by_counting(nn: usize, each: impl Fn(&mut dyn FnMut(usize, u32))) -> (Vec
 
 impl Pattern {
     pub fn new(mesh: &Mesh) -> Result<Self, SolveError> {
+        Self::with_pairs(mesh, &[])
+    }
+
+    /// The pattern of `mesh` with the node pairs `extra` coupled as well (a contact between
+    /// nodes that share no element). Out-of-range nodes are an error.
+    pub fn with_pairs(mesh: &Mesh, extra: &[[usize; 2]]) -> Result<Self, SolveError> {
         let nn = mesh.nodes.len();
+        if let Some(p) = extra.iter().find(|p| p[0] >= nn || p[1] >= nn) {
+            return Err(SolveError::Factor(format!(
+                "node pair {p:?} is outside the mesh's {nn} nodes"
+            )));
+        }
         let n = 2 * nn;
         if n >= u32::MAX as usize / 8 {
             return Err(SolveError::Factor(format!("{nn} nodes is too many")));
@@ -136,6 +147,9 @@ impl Pattern {
                         }
                     }
                 }
+            }
+            for &[a, b] in extra {
+                push(a.min(b), a.max(b) as u32);
             }
         });
         let mut lens = vec![0usize; nn];
@@ -276,6 +290,29 @@ impl Pattern {
 
     pub fn nnz(&self) -> usize {
         self.row_idx.len()
+    }
+
+    /// Value slot of the entry coupling DOFs `p` and `q` (either order; the lower triangle
+    /// holds it), if the pattern has it.
+    pub fn slot_of(&self, p: usize, q: usize) -> Option<usize> {
+        // Stored at (row, col) with node(row) >= node(col), and row >= col within a node.
+        let (row, col) = if p / 2 > q / 2 || (p / 2 == q / 2 && p >= q) {
+            (p, q)
+        } else {
+            (q, p)
+        };
+        let (a, c) = (col / 2, col % 2);
+        let (b, d) = (row / 2, row % 2);
+        if row >= self.n {
+            return None;
+        }
+        let base = self.col_ptr[col];
+        if a == b {
+            return Some(base + d - c);
+        }
+        let nb = &self.node_idx[self.node_ptr[a] + 1..self.node_ptr[a + 1]];
+        let k = nb.binary_search(&b).ok()?;
+        Some(base + (2 - c) + 2 * k + d)
     }
 
     /// Value slots of node `a`'s diagonal 2x2 block: (x, x), (y, x), (y, y).

@@ -213,8 +213,8 @@ pub struct Seed002 {
 }
 
 /// Diastole and systole of the seed-002 pulse.
-const DIASTOLE_S: f64 = 0.0;
-const SYSTOLE_S: f64 = 0.425;
+pub const DIASTOLE_S: f64 = 0.0;
+pub const SYSTOLE_S: f64 = 0.425;
 
 fn swing(run: &ModelRun) -> (Vec<f64>, f64) {
     let at = |t: f64| run.times.iter().find(|r| (r.t_s - t).abs() < 1e-12);
@@ -342,7 +342,8 @@ pub fn seed_002_with(o: &StudyOptions, done: ModelDone<'_>) -> Result<Seed002, S
         "indentation",
         "finger indentation (mm)",
         &artery,
-        &[2.5, 3.0, 3.5, 3.8, 4.1],
+        // The paper's 2.5-4.1 mm and issue 16's 1.5-4.5 mm.
+        &[1.5, 2.0, 2.5, 3.0, 3.5, 3.8, 4.1, 4.5],
         |m, d_mm| {
             if let Load::Finger { indent_m, .. } = &mut m.load {
                 *indent_m = d_mm * 1e-3;
