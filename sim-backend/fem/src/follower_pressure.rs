@@ -49,7 +49,6 @@ pub fn add_tangent(wall: &LumenWall, p_pa: f64, element_k: &mut [[f64; 36]]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lumen_wall::ring;
     use crate::sparse::Pattern;
 
     /// Deterministic pseudo-random numbers in [-1, 1] (xorshift).
@@ -66,7 +65,7 @@ mod tests {
 
     #[test]
     fn at_rest_the_follower_load_is_the_reference_load() {
-        let m = ring(1e-3, 2e-3, 2, 24);
+        let m = crate::mesh::Mesh::ring(1e-3, 2e-3, 2, 24);
         let w = LumenWall::new(&m).unwrap();
         let mut f = vec![0.0; m.dofs()];
         add_forces(&w, &m, &vec![0.0; m.dofs()], 1234.0, &mut f);
@@ -78,7 +77,7 @@ mod tests {
 
     #[test]
     fn the_load_follows_the_wall_and_has_no_resultant_in_any_shape() {
-        let m = ring(1e-3, 2e-3, 2, 24);
+        let m = crate::mesh::Mesh::ring(1e-3, 2e-3, 2, 24);
         let w = LumenWall::new(&m).unwrap();
         let p = 1e4;
         // An arbitrary deformed shape: a large distortion of every node.
@@ -123,7 +122,7 @@ mod tests {
 
     #[test]
     fn on_a_closed_wall_the_symmetric_tangent_is_the_exact_derivative() {
-        let m = ring(1e-3, 2e-3, 1, 16);
+        let m = crate::mesh::Mesh::ring(1e-3, 2e-3, 1, 16);
         let w = LumenWall::new(&m).unwrap();
         assert!(w.is_closed());
         let p = 1e4;
@@ -173,7 +172,7 @@ mod tests {
         use crate::finite::{FiniteModel, Loads, LumenModel};
         use crate::material::{Analysis, Material};
         let (a, b, n_r, n_t) = (1e-3, 2e-3, 4, 48);
-        let m = ring(a, b, n_r, n_t);
+        let m = crate::mesh::Mesh::ring(a, b, n_r, n_t);
         let how = LumenModel {
             follower,
             self_contact: false,

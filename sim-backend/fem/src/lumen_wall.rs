@@ -159,33 +159,6 @@ impl LumenWall {
     }
 }
 
-/// A full ring a <= r <= b meshed n_r x n_t (counter-clockwise elements), its inner
-/// circle the lumen.
-#[cfg(test)]
-pub(crate) fn ring(a: f64, b: f64, n_r: usize, n_t: usize) -> Mesh {
-    let mut m = Mesh {
-        feature_centre: Some([0.0, 0.0]),
-        ..Mesh::default()
-    };
-    let id = |i: usize, j: usize| ((j % n_t) * (n_r + 1) + i) as u32;
-    for j in 0..n_t {
-        let t = std::f64::consts::TAU * j as f64 / n_t as f64;
-        for i in 0..=n_r {
-            let r = a + (b - a) * i as f64 / n_r as f64;
-            m.nodes.push([r * t.cos(), r * t.sin()]);
-        }
-    }
-    for j in 0..n_t {
-        for i in 0..n_r {
-            m.elements
-                .push([id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
-            m.region.push(0);
-        }
-        m.lumen_edges.push([id(0, j), id(0, j + 1)]);
-    }
-    m
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -72,13 +72,30 @@ impl Mesh {
     /// A quarter annulus a <= r <= b, 0 <= θ <= π/2, with `n_r` x `n_t` elements; the inner
     /// arc is the lumen. Used to verify against Lamé's thick cylinder.
     pub fn quarter_annulus(a: f64, b: f64, n_r: usize, n_t: usize) -> Mesh {
+        Self::annulus(a, b, n_r, n_t, false)
+    }
+
+    /// A whole ring a <= r <= b with `n_r` x `n_t` elements (counter-clockwise), its inner
+    /// circle the lumen.
+    pub fn ring(a: f64, b: f64, n_r: usize, n_t: usize) -> Mesh {
+        Self::annulus(a, b, n_r, n_t, true)
+    }
+
+    /// The quarter annulus, or with `closed` the whole ring (its last column of elements
+    /// joins the first instead of ending on a new column of nodes).
+    fn annulus(a: f64, b: f64, n_r: usize, n_t: usize, closed: bool) -> Mesh {
         let mut m = Mesh {
             feature_centre: Some([0.0, 0.0]),
             ..Mesh::default()
         };
-        let id = |i: usize, j: usize| (j * (n_r + 1) + i) as u32;
-        for j in 0..=n_t {
-            let t = std::f64::consts::FRAC_PI_2 * j as f64 / n_t as f64;
+        let (columns, sweep) = if closed {
+            (n_t, std::f64::consts::TAU)
+        } else {
+            (n_t + 1, std::f64::consts::FRAC_PI_2)
+        };
+        let id = |i: usize, j: usize| ((j % columns) * (n_r + 1) + i) as u32;
+        for j in 0..columns {
+            let t = sweep * j as f64 / n_t as f64;
             for i in 0..=n_r {
                 let r = a + (b - a) * i as f64 / n_r as f64;
                 m.nodes.push([r * t.cos(), r * t.sin()]);
@@ -90,8 +107,6 @@ impl Mesh {
                     .push([id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
                 m.region.push(0);
             }
-        }
-        for j in 0..n_t {
             m.lumen_edges.push([id(0, j), id(0, j + 1)]);
         }
         m

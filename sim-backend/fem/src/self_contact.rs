@@ -466,7 +466,7 @@ mod tests {
     fn pinched_ring(how: LumenModel, pinch: &[f64], p_pa: f64) -> Vec<(f64, usize, f64, f64)> {
         use crate::finite::Loads;
         let (n_r, n_t) = (3, 64);
-        let m = crate::lumen_wall::ring(1.5e-3, 2e-3, n_r, n_t);
+        let m = crate::mesh::Mesh::ring(1.5e-3, 2e-3, n_r, n_t);
         let fm = FiniteModel::new(&m, &[Material::new(400e3, 0.3)], Analysis::PlaneStrain)
             .unwrap()
             .with_lumen(how)
@@ -559,7 +559,7 @@ mod tests {
 
     #[test]
     fn the_wall_pattern_holds_every_contact_entry_and_the_element_ones_where_they_were() {
-        let m = crate::lumen_wall::ring(1.5e-3, 2e-3, 2, 24);
+        let m = crate::mesh::Mesh::ring(1.5e-3, 2e-3, 2, 24);
         let wall = LumenWall::new(&m).unwrap();
         let plain = Pattern::new(&m).unwrap();
         let with = Pattern::with_pairs(&m, &wall_pairs(&wall)).unwrap();
