@@ -104,11 +104,7 @@ pub fn indentation_sweep(
                     }
                 })?;
             let x0 = m.x_origin_m();
-            let x: Vec<f64> = mesh
-                .top
-                .iter()
-                .map(|&n| mesh.nodes[n as usize][0] - x0)
-                .collect();
+            let x = mesh.top_x_m(x0);
             let snap = |k: usize| -> Snapshot {
                 let vm: Vec<f64> = states[k]
                     .stresses

@@ -154,15 +154,7 @@ impl Q4 {
                 }
             }
         }
-        let mut out = [0.0; 36];
-        let mut i = 0;
-        for (p, row) in k.iter().enumerate() {
-            for &v in &row[p..] {
-                out[i] = v;
-                i += 1;
-            }
-        }
-        out
+        pack_upper(&k)
     }
 
     /// Stress (σxx, σyy, σxy, σzz) at each Gauss point for element displacements `u`.
@@ -208,6 +200,19 @@ pub fn extrapolate_to_nodes(at_gauss: &[[f64; 4]; 4]) -> [[f64; 4]; 4] {
             for c in 0..4 {
                 out[a][c] += wg * at_gauss[g][c];
             }
+        }
+    }
+    out
+}
+
+/// The upper triangle of an 8x8 element matrix, row by row (36 values): what assembly reads.
+pub(crate) fn pack_upper(k: &[[f64; 8]; 8]) -> [f64; 36] {
+    let mut out = [0.0; 36];
+    let mut i = 0;
+    for (p, row) in k.iter().enumerate() {
+        for &v in &row[p..] {
+            out[i] = v;
+            i += 1;
         }
     }
     out

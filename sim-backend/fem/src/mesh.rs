@@ -33,6 +33,14 @@ impl Mesh {
         ]
     }
 
+    /// The top edge's nodes' x, measured from `x0` (the model's output origin), m.
+    pub fn top_x_m(&self, x0: f64) -> Vec<f64> {
+        self.top
+            .iter()
+            .map(|&n| self.nodes[n as usize][0] - x0)
+            .collect()
+    }
+
     /// Signed area of element `e` (positive when counter-clockwise).
     pub fn signed_area(&self, e: usize) -> f64 {
         let x = self.element_coords(e);

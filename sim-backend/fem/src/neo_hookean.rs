@@ -204,15 +204,7 @@ pub fn element_state(
     if mean_dilatation {
         add_mean_dilatation(m.lambda_pa(), q.area, v, &dv, &cross, &mut fint, &mut k)?;
     }
-    let mut up = [0.0; 36];
-    let mut i = 0;
-    for (p, row) in k.iter().enumerate() {
-        for &v in &row[p..] {
-            up[i] = v;
-            i += 1;
-        }
-    }
-    Some((fint, up))
+    Some((fint, crate::element::pack_upper(&k)))
 }
 
 /// The mean dilatation's λ term `V φ(θ)`, φ(θ) = λ/2 (ln θ)², θ = v/V: its force φ'(θ) ∂v/∂u

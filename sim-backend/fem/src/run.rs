@@ -140,11 +140,7 @@ fn time_result(
     u: &[f64],
 ) -> TimeResult {
     let x0 = model.x_origin_m();
-    let x_m: Vec<f64> = mesh
-        .top
-        .iter()
-        .map(|&n| mesh.nodes[n as usize][0] - x0)
-        .collect();
+    let x_m = mesh.top_x_m(x0);
     let von_mises_pa: Vec<f64> = stresses
         .iter()
         .map(|s| von_mises(s[0], s[1], s[2], s[3]))
