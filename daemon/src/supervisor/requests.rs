@@ -178,6 +178,15 @@ impl Supervisor {
     }
 
     pub(super) fn mark(&mut self, id: u64, to: Responder, t: f64, logged: &Value) {
+        // A trial that could not be recorded is refused first: it is the lasting reason (a full
+        // or read-only disk), where the arm's arrival below is a passing one.
+        let starts_trial = self.state == OpState::Done || self.trial.is_none();
+        if starts_trial
+            && let Err(why) =
+                crate::recording::space::check_room(&self.s.recording_dir, self.s.min_free_bytes)
+        {
+            return self.reply_err(id, to, ErrorCode::Refused, &why);
+        }
         // Marks happen only where the arm has arrived (judged from the encoders).
         if let Some((_, s)) = self.stopped_short {
             let why = format!(
@@ -196,12 +205,7 @@ impl Supervisor {
                 "cannot mark yet: the arm has not arrived at rest within the arrival tolerance of its target",
             );
         }
-        if self.state == OpState::Done || self.trial.is_none() {
-            if let Err(why) =
-                crate::recording::space::check_room(&self.s.recording_dir, self.s.min_free_bytes)
-            {
-                return self.reply_err(id, to, ErrorCode::Refused, &why);
-            }
+        if starts_trial {
             self.start_trial(t);
         }
         self.record(Topic::Events, t, logged);
