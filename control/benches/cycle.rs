@@ -12,7 +12,7 @@ use nalgebra::{Point3, Vector3};
 use pulsetrack_control::frames::SurfacePoint;
 use pulsetrack_control::kinematics::{
     ArmModel, DEFAULT_SENSOR_OFFSET_M, DEFAULT_SURFACE_DEPTH_M, JointLimits, PhantomGeometry,
-    PivotGeometry, phantom, tissue_under_pivot,
+    PivotGeometry, RodMechanics, phantom, tissue_under_pivot,
 };
 use pulsetrack_control::motion::{MotionParams, MotionPlanner};
 use pulsetrack_control::pd::gravity::{ArmGravity, Instrument};
@@ -73,6 +73,14 @@ fn main() {
     let heavy = Instrument {
         mass_kg: 0.6,
         contact_load_n: 0.3 * 9.81,
+    };
+    // The shipped sim config's rod (the seed's bench).
+    let rod = RodMechanics {
+        bending_stiffness_nm2: 4.03,
+        pivot_stiffness_n_per_m: 1000.0,
+        rod_mass_kg: 0.062,
+        tip_mass_kg: 0.3,
+        tip_mass_height_m: 0.03,
     };
     let bare = ArmGravity::new(&PhantomMasses::default(), &geom, &pivot, None);
     let with_instrument = ArmGravity::new(&PhantomMasses::default(), &geom, &pivot, Some(&heavy));
@@ -143,6 +151,17 @@ fn main() {
             "ArmModel::joint_setpoint",
             median_ns(|i| {
                 black_box(arm.joint_setpoint(black_box(&points[i % 64]), &v).ok());
+            }),
+        ),
+        (
+            // Once per tactile frame (every tenth cycle at 100 Hz), with the config's `rod`:
+            // the rod's load read from the motors' torque, through the gimbal Jacobian.
+            "ArmModel::sensor_felt + PhantomGravity::torque_nm",
+            median_ns(|i| {
+                let q = black_box(&joints[i % 64]);
+                let body = gravity.torque_nm(q);
+                let motor = [body[0] + 0.05, body[1] - 0.1, body[2] + 0.08];
+                black_box(arm.sensor_felt(q, &motor, &body, &rod, 9.81).ok());
             }),
         ),
         (

@@ -68,6 +68,7 @@ fn main() {
             frame: f,
             sensor: SurfacePoint::default(),
             settled: true,
+            loaded_sensor: None,
         };
         let start = Instant::now();
         black_box(t.step(black_box(&input)));

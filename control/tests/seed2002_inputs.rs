@@ -85,6 +85,7 @@ fn bad_frames_restart_the_acquisition_and_never_panic() {
             frame: &frame,
             sensor: at,
             settled: true,
+            loaded_sensor: None,
         });
         assert_eq!(out.motion, MotionCommand::Hold);
         if let Some(e @ (TrackerEvent::Located(_) | TrackerEvent::Missed { .. })) = out.event {
@@ -113,6 +114,7 @@ fn no_sampling_while_the_sensor_is_not_at_rest() {
             frame: &frame,
             sensor: at,
             settled: false,
+            loaded_sensor: None,
         });
         assert_eq!(out.event, None);
     }
@@ -125,6 +127,7 @@ fn no_sampling_while_the_sensor_is_not_at_rest() {
             frame: &frame,
             sensor: at,
             settled: k != 350,
+            loaded_sensor: None,
         });
         // The acquisition's first event (the new pulse period) comes on the frame that
         // completes the window.
@@ -149,6 +152,7 @@ fn stepping_does_not_allocate() {
             frame: &frame,
             sensor: mover.position,
             settled: mover.settled(),
+            loaded_sensor: None,
         };
         let before = allocations();
         let out = t.step(&input);

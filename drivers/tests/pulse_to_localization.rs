@@ -64,6 +64,7 @@ fn mark_over(artery_z_m: f64, name: &str) -> (SurfacePoint, f64) {
                 frame: &frame,
                 sensor,
                 settled: true,
+                loaded_sensor: None,
             });
             match out.event {
                 Some(TrackerEvent::Located(p)) => break 'frames p,

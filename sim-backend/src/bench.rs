@@ -424,15 +424,16 @@ impl Bench {
         self.pulse.beats_started_by(t_s)
     }
 
-    /// Where the sensor truly is.
-    /// The true rod's mechanics (None: an ideal arm, or a rigid rod or pivot).
+    /// The true rod's mechanics (None: an ideal arm).
     pub fn rod_mechanics(&self) -> Option<control::kinematics::RodMechanics> {
         let Arm::Dynamic(a) = &self.arm else {
             return None;
         };
+        // A rigid shaft or incision is one too stiff to bend: the same reading, no deflection.
+        const RIGID: f64 = 1e12;
         Some(control::kinematics::RodMechanics {
-            bending_stiffness_nm2: a.rod.bending_stiffness_nm2?,
-            pivot_stiffness_n_per_m: a.rod.pivot_stiffness_n_per_m?,
+            bending_stiffness_nm2: a.rod.bending_stiffness_nm2.unwrap_or(RIGID),
+            pivot_stiffness_n_per_m: a.rod.pivot_stiffness_n_per_m.unwrap_or(RIGID),
             rod_mass_kg: a.rod.rod_mass_kg,
             tip_mass_kg: a.rod.mass_kg,
             tip_mass_height_m: a.rod.mass_height_m,

@@ -12,9 +12,10 @@ use std::time::Instant;
 
 use control::frames::SurfacePoint;
 use control::kinematics::ArmModel;
+use control::kinematics::RodMechanics;
 use control::motion::{Arrival, MotionPlanner, Shortfall};
 use control::pd::PdController;
-use control::pd::gravity::{ArmGravity, GravityModel};
+use control::pd::gravity::{ArmGravity, GravityModel, PhantomGravity};
 use control::tracker::approach::ApproachTrail;
 use control::tracker::{
     EndReason, MotionCommand, TrackLimit, Tracker, TrackerEvent, TrackerInput, TrackerPhase,
@@ -105,6 +106,25 @@ struct Lockstep {
     /// The true sensor at each recent frame, to score a localization at the time it was
     /// made (its event may come out a few frames later, once the next move has begun).
     recent_truth: std::collections::VecDeque<(f64, SurfacePoint)>,
+    /// What reads the sensor's place from the arm's load, where the config describes the rod.
+    load_reading: Option<LoadReading>,
+}
+
+/// The rod and the arm's own bodies, to read where the sensor is from the motors' torque
+/// (`ArmModel::sensor_felt`), as the daemon does.
+struct LoadReading {
+    rod: RodMechanics,
+    bodies: PhantomGravity,
+    gravity_m_s2: f64,
+}
+
+/// The rod the load is read with: none without a `rod` section in the config; with one, the
+/// scene's compliant rod (what a lab would measure and type in, as with the instrument's
+/// mass), else the config's.
+fn described_rod(config: &config::Config, bench: &Bench) -> Option<RodMechanics> {
+    config
+        .rod
+        .map(|configured| bench.rod_mechanics().unwrap_or(configured))
 }
 
 /// The instrument the controller compensates: the config's, with its mass filled from the
@@ -174,7 +194,13 @@ impl Lockstep {
             next_track_sample_s: 0.0,
             log: Vec::new(),
             recent_truth: std::collections::VecDeque::with_capacity(RECENT_FRAMES + 1),
+            load_reading: None,
         };
+        lockstep.load_reading = described_rod(config, &lockstep.bench).map(|rod| LoadReading {
+            rod,
+            bodies: PhantomGravity::new(&config.robot.link_masses),
+            gravity_m_s2: config.robot.link_masses.gravity_m_s2,
+        });
         lockstep.update_belief()?;
         Ok(lockstep)
     }
@@ -220,6 +246,26 @@ impl Lockstep {
 
     fn believed_surface(&self) -> SurfacePoint {
         SurfacePoint::new(self.believed.x, self.believed.z)
+    }
+
+    /// Where the arm's load says the sensor is now (encoders and commanded torques), where
+    /// the rod is described and the arm is driven.
+    fn felt_surface(&self) -> Option<SurfacePoint> {
+        let r = self.load_reading.as_ref()?;
+        if self.bench.is_ideal() {
+            return None;
+        }
+        let q = self.bench.read_joints().position_rad;
+        let body = r.bodies.torque_nm(&q);
+        self.model
+            .sensor_felt(
+                &q,
+                &self.bench.commanded_torque_nm(),
+                &body,
+                &r.rod,
+                r.gravity_m_s2,
+            )
+            .ok()
     }
 
     /// The joint setpoint for the planner's setpoint now. At rest it is control's
@@ -519,6 +565,7 @@ impl Lockstep {
             frame,
             sensor: self.believed_surface(),
             settled: self.settled(),
+            loaded_sensor: self.felt_surface(),
         };
         let out = self.tracker.step(&input);
         if let Err(e) = self.apply(out.motion) {

@@ -354,6 +354,12 @@ fn the_arm_torques_say_where_the_compliant_rod_left_the_sensor() {
                 .model
                 .sensor_under_load(&q, &rod_tau, &mech, config.robot.link_masses.gravity_m_s2)
                 .expect("a pose in range");
+            // The composed reading the runner and the daemon feed the tracker is the same.
+            let felt = trial
+                .model
+                .sensor_felt(&q, &tau, &g, &mech, config.robot.link_masses.gravity_m_s2)
+                .expect("a pose in range");
+            assert!((felt.x_m - loaded.x).abs() < 1e-12 && (felt.z_m - loaded.z).abs() < 1e-12);
             let rigid = trial.model.surface_point(&q).expect("a pose in range");
             let truth = trial.bench.truth();
             let off = |x: f64, z: f64| (x - truth.sensor.x_m).hypot(z - truth.sensor.z_m);
@@ -419,5 +425,41 @@ fn skipping_a_dead_element_keeps_the_fixes_on_the_artery() {
     assert!(
         skipped_sd < 0.6 * trusted_sd,
         "skipped SD {skipped_sd} against trusted {trusted_sd}"
+    );
+}
+
+/// The seed points on the seed's arc, marked where friction left the rod's tip 3-5 mm off
+/// the rigid map: with the config's `rod`, `beatslide` reports each where the arm's load
+/// puts it; without, where its own lag model does. Seeds 1-4 measured: RMS lateral error
+/// 0.18 mm against 1.2 mm.
+#[test]
+fn the_seed_points_are_placed_where_the_arm_load_puts_the_sensor() {
+    let s = scene("seed-arc-145.ron");
+    let with = sim_config();
+    assert!(
+        with.rod.is_some(),
+        "the shipped sim config describes its rod"
+    );
+    let mut without = sim_config();
+    without.rod = None;
+    let seed_rms = |config: &config::Config| {
+        let mut sq = Vec::new();
+        for seed in 1..=4 {
+            let t = run_trial(&s, config, "beatslide", seed).expect("the trial runs");
+            assert!(t.completed, "seed {seed}: {:?}", t.end_reason);
+            assert_eq!(t.false_points, 0, "seed {seed}");
+            sq.extend(
+                t.located
+                    .iter()
+                    .filter(|p| p.seed)
+                    .map(|p| p.lateral_error_m.powi(2)),
+            );
+        }
+        (sq.iter().sum::<f64>() / sq.len() as f64).sqrt()
+    };
+    let (felt, believed) = (seed_rms(&with), seed_rms(&without));
+    assert!(
+        felt < 0.5e-3 && felt < 0.4 * believed,
+        "seed points RMS {felt} m with the rod's reading, {believed} m without"
     );
 }

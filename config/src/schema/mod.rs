@@ -59,6 +59,12 @@ pub struct Config {
     /// What the gimbal carries; absent: only the arm's own bodies are gravity-compensated.
     #[serde(default)]
     pub instrument: Option<control::pd::gravity::Instrument>,
+    /// The instrument's shaft as far as its bending and weight go: with it the daemon reads
+    /// where the sensor is from the arm's torques (docs/kinematics.md, "The rod's
+    /// deflection") and `beatslide` checks its points against that reading; absent: no
+    /// reading.
+    #[serde(default)]
+    pub rod: Option<control::kinematics::RodMechanics>,
 }
 
 impl Validate for Config {
@@ -85,6 +91,15 @@ impl Validate for Config {
         v.section("console", &self.console);
         v.section("recording", &self.recording);
         v.section("live", &self.live);
+        if let Some(r) = &self.rod {
+            v.at("rod", |v| {
+                v.positive("bending_stiffness_nm2", r.bending_stiffness_nm2);
+                v.positive("pivot_stiffness_n_per_m", r.pivot_stiffness_n_per_m);
+                v.non_negative("rod_mass_kg", r.rod_mass_kg);
+                v.non_negative("tip_mass_kg", r.tip_mass_kg);
+                v.non_negative("tip_mass_height_m", r.tip_mass_height_m);
+            });
+        }
         if let Some(i) = &self.instrument {
             v.at("instrument", |v| {
                 instrument::validate(i, &self.robot, &self.control, v);

@@ -254,6 +254,30 @@ impl ArmModel {
         ))
     }
 
+    /// Where the sensor centre is by what the arm feels, on the tissue surface: the motors'
+    /// torque `motor_torque_nm` less what holds the arm's own bodies up
+    /// (`body_gravity_nm`) balances the rod's push on the gimbal
+    /// ([`Self::sensor_under_load`]). The lockstep runner and the daemon both read it here.
+    pub fn sensor_felt(
+        &self,
+        q: &Joints,
+        motor_torque_nm: &Joints,
+        body_gravity_nm: &Joints,
+        mechanics: &RodMechanics,
+        gravity_m_s2: f64,
+    ) -> Result<SurfacePoint, KinematicsError> {
+        let rod_torque = [0, 1, 2].map(|j| body_gravity_nm[j] - motor_torque_nm[j]);
+        let (p, _) = self.sensor_under_load(q, &rod_torque, mechanics, gravity_m_s2)?;
+        let felt = SurfacePoint::new(p.x, p.z);
+        if felt.is_finite() {
+            Ok(felt)
+        } else {
+            Err(KinematicsError::NonFinite {
+                what: "sensor under load",
+            })
+        }
+    }
+
     /// Insertion depth of the rod tip below the pivot for joint angles (no range guard).
     pub fn depth_m(&self, q: &Joints) -> Result<f64, KinematicsError> {
         pivot::depth_m(&self.pivot, &phantom::forward(&self.phantom, q)?)

@@ -23,6 +23,11 @@ pub struct TrackerInput<'a> {
     /// a `MoveTo` returned for frame k is applied before `settled` is judged for frame k+1,
     /// so from then on `settled` refers to that move.
     pub settled: bool,
+    /// Where the arm's torques say the sensor is, the rod's deflection under its load
+    /// included (`kinematics::rod_load`), tissue frame; `None` where the rod is not
+    /// described. An independent second reading of `sensor`'s place, not a replacement: a
+    /// tracker may use it to refuse to report a point whose place the two disagree on.
+    pub loaded_sensor: Option<SurfacePoint>,
 }
 
 /// Where the tracker wants the sensor to go. A tracker repeats the same `MoveTo` on every

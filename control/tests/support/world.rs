@@ -296,6 +296,7 @@ pub fn run(
             frame: &frame,
             sensor: mover.position,
             settled: mover.settled(),
+            loaded_sensor: None,
         });
         trace.frames += 1;
         if let MotionCommand::MoveTo { target, .. } = out.motion

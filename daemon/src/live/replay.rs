@@ -114,6 +114,8 @@ mod tests {
                 settled: true,
                 contact_n: Some(5.0),
                 tracker_settled: None,
+                loaded_x_m: None,
+                loaded_z_m: None,
             };
             f.write(Topic::Tactile, t, &serde_json::to_vec(&s).expect("json"))
                 .expect("write");

@@ -32,6 +32,13 @@ pub struct TactileSample {
     /// feeds exactly these frames with exactly this flag.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tracker_settled: Option<bool>,
+    /// Where the arm's load said the sensor centre was (the config's `rod`, while powered),
+    /// tissue frame, m; absent without a reading (and in recordings made before it existed).
+    /// Replay feeds it to the tracker as it was fed live.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loaded_x_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loaded_z_m: Option<f64>,
 }
 
 /// Joint state, commands and the believed sensor pose (`/joints`).

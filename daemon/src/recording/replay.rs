@@ -25,6 +25,8 @@ pub enum Step {
         frame: TactileFrame,
         sensor: SurfacePoint,
         settled: bool,
+        /// Where the arm's load put the sensor, if recorded.
+        loaded_sensor: Option<SurfacePoint>,
     },
     Call(TrackerCall),
 }
@@ -162,6 +164,10 @@ pub fn recorded(back: &ReadBack) -> Result<Recorded, ReplayError> {
                     s.sensor_z_m.unwrap_or(f64::NAN),
                 ),
                 settled,
+                loaded_sensor: match (s.loaded_x_m, s.loaded_z_m) {
+                    (Some(x), Some(z)) => Some(SurfacePoint::new(x, z)),
+                    _ => None,
+                },
             });
         } else if m.topic == Topic::Events.name() {
             match m.json.get("event").and_then(Value::as_str) {
@@ -227,12 +233,14 @@ pub fn replay(steps: &[Step], tracker: &mut dyn Tracker) -> Replayed {
                 frame,
                 sensor,
                 settled,
+                loaded_sensor,
             } => {
                 out.frames += 1;
                 let o = tracker.step(&TrackerInput {
                     frame,
                     sensor: *sensor,
                     settled: *settled,
+                    loaded_sensor: *loaded_sensor,
                 });
                 if let Some(e) = o.event {
                     if let TrackerEvent::Located(p) = e {

@@ -266,12 +266,21 @@ impl ControlLoop {
                 continue;
             }
             let contact_n: f64 = frame.force_n.iter().sum();
+            // Read once per frame (not per cycle), and only while the motors hold the arm:
+            // unpowered, their torque says nothing about the rod.
+            let loaded_sensor = (self.status.mode == LoopMode::Enabled)
+                .then(|| {
+                    self.servo
+                        .sensor_felt(&self.status.position_rad, &self.status.torque_nm)
+                })
+                .flatten();
             self.status.tactile_t_s = frame.t_s;
             self.status.contact_n = contact_n;
             self.status.tactile_frames += 1;
             let stamped = StampedFrame {
                 frame,
                 sensor: self.status.sensor,
+                loaded_sensor,
                 settled: self.status.settled,
                 shortfall: self.status.shortfall,
                 motion_seq: self.status.motion_seq,

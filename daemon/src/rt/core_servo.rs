@@ -4,9 +4,9 @@
 
 use config::Config;
 use control::frames::SurfacePoint;
-use control::kinematics::{ArmModel, KinematicsError};
+use control::kinematics::{ArmModel, KinematicsError, RodMechanics};
 use control::motion::{Arrival, MotionPlanner};
-use control::pd::gravity::ArmGravity;
+use control::pd::gravity::{ArmGravity, PhantomGravity};
 use control::pd::{GravityModel, PdController, PdFault};
 use control::types::{JointState, Joints};
 use nalgebra::{Point3, Vector3};
@@ -22,6 +22,9 @@ pub struct CoreServo {
     planner: MotionPlanner,
     pd: PdController,
     gravity: ArmGravity,
+    /// The config's rod, the arm's own bodies and g: what reads the sensor's place from the
+    /// arm's load.
+    rod: Option<(RodMechanics, PhantomGravity, f64)>,
 }
 
 pub fn build(c: &Config) -> Result<Box<dyn Servo>, String> {
@@ -45,6 +48,13 @@ impl CoreServo {
                 &c.robot.pivot,
                 c.instrument.as_ref(),
             ),
+            rod: c.rod.map(|r| {
+                (
+                    r,
+                    PhantomGravity::new(&c.robot.link_masses),
+                    c.robot.link_masses.gravity_m_s2,
+                )
+            }),
         })
     }
 }
@@ -155,6 +165,13 @@ impl Servo for CoreServo {
             centre: SurfacePoint::new(p.x, p.z),
             depth_m,
         })
+    }
+
+    fn sensor_felt(&self, q: &Joints, motor_torque_nm: &Joints) -> Option<SurfacePoint> {
+        let (rod, bodies, g) = self.rod.as_ref()?;
+        self.arm
+            .sensor_felt(q, motor_torque_nm, &bodies.torque_nm(q), rod, *g)
+            .ok()
     }
 
     fn hold_here(&mut self, now_s: f64, state: &JointState) -> Result<(), Fault> {

@@ -118,6 +118,8 @@ pub struct StampedFrame {
     pub frame: TactileFrame,
     /// Believed sensor centre (encoders + fixed-pivot model), tissue frame.
     pub sensor: SurfacePoint,
+    /// Where the arm's load says the sensor centre is (the config's `rod`), while powered.
+    pub loaded_sensor: Option<SurfacePoint>,
     /// The motion with this sequence number has arrived (encoders through the kinematics).
     pub settled: bool,
     /// ... or has stopped short of its target, by how much and why.

@@ -35,6 +35,11 @@ pub trait Servo: Send {
     /// The believed sensor pose for joint angles (encoders + fixed-pivot model).
     fn sensor_pose(&self, now_s: f64, position_rad: &Joints) -> Result<SensorPose, Fault>;
 
+    /// Where the arm's load says the sensor centre is, with the motors applying
+    /// `motor_torque_nm` at `position_rad`: `None` without a described rod, or where the
+    /// reading fails (a singular gimbal).
+    fn sensor_felt(&self, position_rad: &Joints, motor_torque_nm: &Joints) -> Option<SurfacePoint>;
+
     /// Hold exactly at the measured state: the setpoint becomes the measured pose and the
     /// controller forgets its history, so powering up never jumps.
     fn hold_here(&mut self, now_s: f64, state: &JointState) -> Result<(), Fault>;

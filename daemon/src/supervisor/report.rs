@@ -45,6 +45,8 @@ pub fn tactile_sample(f: &StampedFrame, tracker_settled: Option<bool>) -> Tactil
         settled: f.settled,
         contact_n: finite(f.contact_n),
         tracker_settled,
+        loaded_x_m: f.loaded_sensor.and_then(|s| finite(s.x_m)),
+        loaded_z_m: f.loaded_sensor.and_then(|s| finite(s.z_m)),
     }
 }
 

@@ -44,6 +44,7 @@ impl Supervisor {
             frame: &f.frame,
             sensor: f.sensor,
             settled,
+            loaded_sensor: f.loaded_sensor,
         });
         if let Some(e) = out.event {
             self.on_tracker_event(e);

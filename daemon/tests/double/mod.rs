@@ -138,6 +138,9 @@ impl Servo for FakeServo {
             depth_m: q[2],
         })
     }
+    fn sensor_felt(&self, _q: &Joints, _torque: &Joints) -> Option<SurfacePoint> {
+        None // no rod described
+    }
     fn hold_here(&mut self, _now: f64, s: &JointState) -> Result<(), Fault> {
         let p = SurfacePoint::new(s.position_rad[0], s.position_rad[1]);
         self.setpoint = Some(p);

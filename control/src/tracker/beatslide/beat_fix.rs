@@ -40,6 +40,9 @@ pub struct BeatFix {
     pub sensor: SurfacePoint,
     /// Mean direction of the sensor's lag behind the belief over the window.
     pub lag_dir: [f64; 2],
+    /// Mean of where the arm's load put the sensor less the belief over the window, m, if
+    /// every frame had that reading.
+    pub felt_offset: Option<[f64; 2]>,
     /// Noise SD used, N.
     pub noise_sd_n: f64,
     /// The elements' sum (with the kernel weights), shifted back to the clock's phase:
@@ -140,6 +143,7 @@ pub fn analyse_window(
         kernel,
         sensor,
         lag_dir: window.mean_lag(),
+        felt_offset: window.mean_felt_offset(),
         noise_sd_n: sigma,
         aligned: shift_waveform(&combined, -delay),
     })

@@ -1,5 +1,6 @@
 //! The last few seconds of frames with where the robot believed the sensor was at each, and
-//! which way the sensor then trailed behind that belief.
+//! which way the sensor then trailed behind that belief, and how far the arm's load put
+//! it from that belief (where the rod is described).
 //!
 //! `beatslide` analyses windows that end now and reach back one beat or more, while the
 //! sensor slides; a fix needs the forces, the believed positions and the lag directions of
@@ -14,6 +15,9 @@ pub struct History {
     frames: Vec<TactileFrame>,
     sensors: Vec<SurfacePoint>,
     lags: Vec<[f64; 2]>,
+    /// Where the arm's load put the sensor less where it was believed, m; NaN where the
+    /// rod is not described.
+    felt: Vec<[f64; 2]>,
     capacity: usize,
     /// Index of the oldest entry.
     head: usize,
@@ -27,6 +31,7 @@ impl History {
             frames: Vec::with_capacity(capacity),
             sensors: Vec::with_capacity(capacity),
             lags: Vec::with_capacity(capacity),
+            felt: Vec::with_capacity(capacity),
             capacity,
             head: 0,
             len: 0,
@@ -45,22 +50,35 @@ impl History {
         self.frames.clear();
         self.sensors.clear();
         self.lags.clear();
+        self.felt.clear();
         self.head = 0;
         self.len = 0;
     }
 
-    /// Append; the oldest entry goes once the buffer is full.
-    pub fn push(&mut self, frame: TactileFrame, sensor: SurfacePoint, lag: [f64; 2]) {
+    /// Append; the oldest entry goes once the buffer is full. `loaded` is where the arm's
+    /// load says the sensor is, if known.
+    pub fn push(
+        &mut self,
+        frame: TactileFrame,
+        sensor: SurfacePoint,
+        lag: [f64; 2],
+        loaded: Option<SurfacePoint>,
+    ) {
+        let felt = loaded
+            .filter(|l| l.is_finite())
+            .map_or([f64::NAN; 2], |l| [l.x_m - sensor.x_m, l.z_m - sensor.z_m]);
         if self.frames.len() < self.capacity {
             self.frames.push(frame);
             self.sensors.push(sensor);
             self.lags.push(lag);
+            self.felt.push(felt);
             self.len += 1;
             return;
         }
         self.frames[self.head] = frame;
         self.sensors[self.head] = sensor;
         self.lags[self.head] = lag;
+        self.felt[self.head] = felt;
         self.head = (self.head + 1) % self.capacity;
     }
 
@@ -104,6 +122,7 @@ impl History {
                 frames: [&[], &[]],
                 sensors: [&[], &[]],
                 lags: [&[], &[]],
+                felt: [&[], &[]],
             };
         }
         let end = first + count;
@@ -112,6 +131,7 @@ impl History {
                 frames: [&self.frames[first..end], &[]],
                 sensors: [&self.sensors[first..end], &[]],
                 lags: [&self.lags[first..end], &[]],
+                felt: [&self.felt[first..end], &[]],
             }
         } else {
             let wrap = end - self.frames.len();
@@ -119,6 +139,7 @@ impl History {
                 frames: [&self.frames[first..], &self.frames[..wrap]],
                 sensors: [&self.sensors[first..], &self.sensors[..wrap]],
                 lags: [&self.lags[first..], &self.lags[..wrap]],
+                felt: [&self.felt[first..], &self.felt[..wrap]],
             }
         }
     }
@@ -130,6 +151,7 @@ pub struct Window<'a> {
     frames: [&'a [TactileFrame]; 2],
     sensors: [&'a [SurfacePoint]; 2],
     lags: [&'a [[f64; 2]]; 2],
+    felt: [&'a [[f64; 2]]; 2],
 }
 
 impl<'a> Window<'a> {
@@ -177,6 +199,22 @@ impl<'a> Window<'a> {
         }
     }
 
+    /// Mean of where the arm's load put the sensor less where it was believed, over the
+    /// window; `None` unless every frame of it has that reading. Over whole beats the
+    /// pulse's own push on the sensor, which swings the load, averages out.
+    pub fn mean_felt_offset(&self) -> Option<[f64; 2]> {
+        let (mut x, mut z, mut n) = (0.0, 0.0, 0usize);
+        for d in self.felt[0].iter().chain(self.felt[1].iter()) {
+            if !(d[0].is_finite() && d[1].is_finite()) {
+                return None;
+            }
+            x += d[0];
+            z += d[1];
+            n += 1;
+        }
+        (n > 0).then(|| [x / n as f64, z / n as f64])
+    }
+
     pub fn first_t_s(&self) -> Option<f64> {
         self.frames().next().map(|f| f.t_s)
     }
@@ -203,7 +241,13 @@ mod tests {
         let mut h = History::new(5);
         assert!(h.since(0.0).is_empty());
         for i in 0..8 {
-            h.push(frame(i), SurfacePoint::new(i as f64, 0.0), [0.0, i as f64]);
+            let loaded = (i >= 5).then(|| SurfacePoint::new(i as f64 + 0.5, -1.0));
+            h.push(
+                frame(i),
+                SurfacePoint::new(i as f64, 0.0),
+                [0.0, i as f64],
+                loaded,
+            );
         }
         assert_eq!(h.len(), 5);
         assert_eq!(h.oldest_t_s(), Some(0.03));
@@ -215,6 +259,9 @@ mod tests {
         assert_eq!(xs, vec![5.0, 6.0, 7.0]);
         assert_eq!(w.mean_sensor(), Some(SurfacePoint::new(6.0, 0.0)));
         assert_eq!(w.mean_lag(), [0.0, 6.0]);
+        assert_eq!(w.mean_felt_offset(), Some([0.5, -1.0]));
+        // One frame without the reading and the window has none.
+        assert_eq!(h.since(0.035).mean_felt_offset(), None);
         assert_eq!(h.since(0.0).len(), 5);
         assert!(h.since(1.0).is_empty());
         h.clear();

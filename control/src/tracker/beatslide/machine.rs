@@ -529,6 +529,37 @@ impl BeatSlide {
         self.tissue.sd_m() > SMEAR_SD_M && window_s > 1.5 * period
     }
 
+    /// Where the arm's load puts a point that the tracker placed at `point` from a window
+    /// whose believed sensor positions put it at `raw` (before the lag was removed):
+    /// `Some` only when the load was read over the whole window and the two places are
+    /// more than `load_gate_m` apart (across the path, once there is a path model: along
+    /// it a place error moves the point along the artery, not off it).
+    fn load_disagrees(
+        &self,
+        raw: SurfacePoint,
+        point: SurfacePoint,
+        felt: Option<[f64; 2]>,
+    ) -> Option<SurfacePoint> {
+        let loaded = self.load_place(raw, felt)?;
+        let (dx, dz) = (loaded.x_m - point.x_m, loaded.z_m - point.z_m);
+        let apart = match self.filter.as_ref() {
+            Some(f) => {
+                let (sin, cos) = f.heading_rad().sin_cos();
+                (-dx * sin + dz * cos).abs()
+            }
+            None => dx.hypot(dz),
+        };
+        (apart > self.params.load_gate_m).then_some(loaded)
+    }
+
+    /// Where the arm's load puts a point whose window's believed sensor positions put it at
+    /// `raw`: `raw` moved by the window's felt offset, if the load was read over the whole
+    /// window and the reading is used (`load_gate_m` > 0).
+    fn load_place(&self, raw: SurfacePoint, felt: Option<[f64; 2]>) -> Option<SurfacePoint> {
+        let felt = felt.filter(|_| self.params.load_gate_m > 0.0)?;
+        Some(SurfacePoint::new(raw.x_m + felt[0], raw.z_m + felt[1]))
+    }
+
     fn record(&mut self, point: SurfacePoint) {
         if let Some(previous) = self.last_fix {
             self.path_length_m += previous.distance_to(&point);
@@ -611,8 +642,20 @@ impl BeatSlide {
                 let lag = self.params.lag_prior_m;
                 let point =
                     SurfacePoint::new(raw.x_m - lag * lag_dir[0], raw.z_m - lag * lag_dir[1]);
-                let sd_m = self.point_sd(observation.sd_m, lag_dir);
-                let located = self.located(0.5 * (since + t), point, sensor, &fit, true, sd_m);
+                let mut sd_m = self.point_sd(observation.sd_m, lag_dir);
+                // At rest the load's reading (within 0.1-0.3 mm) is the better one
+                // (docs/tracker-beatslide.md, "Where the arm's load puts the sensor"): the
+                // point is reported where it puts it. A mark from both sides is two windows
+                // and has no lag left in it: it stays as it is.
+                let felt = self.history.since(since).mean_felt_offset();
+                let (reported, at) = match (self.load_place(raw, felt), felt) {
+                    (Some(loaded), Some([dx, dz])) if side_sd.is_none() => {
+                        sd_m = self.fix_sd(&fit);
+                        (loaded, SurfacePoint::new(sensor.x_m + dx, sensor.z_m + dz))
+                    }
+                    _ => (point, sensor),
+                };
+                let located = self.located(0.5 * (since + t), reported, at, &fit, true, sd_m);
                 if self.seeds.len() == MAX_SEEDS {
                     self.seeds.remove(0);
                     self.seed_points.remove(0);
@@ -744,6 +787,13 @@ fn check_params(p: &BeatSlideParams, fs: f64) -> Result<(), InvalidParams> {
         return Err(InvalidParams(format!(
             "seat_stroke_m must be in [0, 0.05] m, got {}",
             p.seat_stroke_m
+        )));
+    }
+    // Wider than the array's reach the gate could never close.
+    if !(0.0..=0.01).contains(&p.load_gate_m) {
+        return Err(InvalidParams(format!(
+            "load_gate_m must be in [0, 0.01] m, got {}",
+            p.load_gate_m
         )));
     }
     // A negative deflection of a whole unit would map every position onto the origin.
@@ -945,6 +995,7 @@ impl Tracker for BeatSlide {
             frame: input.frame,
             sensor: self.sensor_from_belief(input.sensor),
             settled: input.settled,
+            loaded_sensor: input.loaded_sensor,
         };
         let input = &compensated;
         let t_s = input.frame.t_s;
@@ -966,7 +1017,8 @@ impl Tracker for BeatSlide {
                         *f = 0.0;
                     }
                 }
-                self.history.push(frame, input.sensor, lag_dir);
+                self.history
+                    .push(frame, input.sensor, lag_dir, input.loaded_sensor);
             } else {
                 self.rejected_frames += 1;
             }
@@ -1059,6 +1111,7 @@ mod tests {
             },
             sensor: SurfacePoint::new(0.015, 0.0),
             lag_dir: [1.0, 0.0],
+            felt_offset: None,
             noise_sd_n: 0.01,
             aligned: Waveform::zeros(),
         }
@@ -1231,6 +1284,84 @@ mod tests {
         ));
         // Before any pulse is known (the first mark) there is nothing to compare with.
         assert!(seeded().check_amplitude(&weak).is_ok());
+    }
+
+    /// The default gate on `seeded()` (heading +x): the load's place for a point is the
+    /// believed one moved by the window's felt offset, and only its part across the path
+    /// counts.
+    #[test]
+    fn the_load_disputes_a_point_only_across_the_path_and_beyond_the_gate() {
+        let t = seeded();
+        let gate = t.params.load_gate_m;
+        let raw = SurfacePoint::new(0.015, 0.0004);
+        let point = SurfacePoint::new(0.0105, 0.0004);
+        // Along the path, however far (the lag's direction): no dispute.
+        assert_eq!(t.load_disagrees(raw, point, Some([-0.0045, 0.0])), None);
+        // Across it, just inside and just beyond the gate.
+        assert_eq!(
+            t.load_disagrees(raw, point, Some([-0.0045, 0.99 * gate])),
+            None
+        );
+        let loaded = t
+            .load_disagrees(raw, point, Some([-0.0045, 1.01 * gate]))
+            .expect("disputed");
+        assert!((loaded.x_m - 0.0105).abs() < 1e-15);
+        assert!((loaded.z_m - (0.0004 + 1.01 * gate)).abs() < 1e-15);
+        // No reading, or the gate off: nothing to dispute.
+        assert_eq!(t.load_disagrees(raw, point, None), None);
+        let mut off = seeded();
+        off.params.load_gate_m = 0.0;
+        assert_eq!(off.load_disagrees(raw, point, Some([0.0, 0.01])), None);
+        // Before a path model (the first seed), the whole distance counts.
+        let mut first = seeded();
+        first.filter = None;
+        assert!(
+            first
+                .load_disagrees(raw, raw, Some([1.01 * gate, 0.0]))
+                .is_some()
+        );
+    }
+
+    /// While sliding, a fix whose place the load disputes steers the track (the path
+    /// grows, the last fix moves) but is not reported; an undisputed one is reported.
+    #[test]
+    fn a_sliding_fix_the_load_disputes_steers_but_is_not_reported() {
+        let run = |felt: Option<[f64; 2]>| {
+            let mut t = with_pulse(0.08);
+            let mut f = fix(0.0);
+            f.felt_offset = felt;
+            let point = t.accept(&f, false).expect("a clear fix on the path");
+            t.after_fix(&f, point, f.sensor, 10.0);
+            let mut located = 0;
+            while let Some(e) = t.events.pop() {
+                located += usize::from(matches!(e, TrackerEvent::Located(_)));
+            }
+            (located, t.last_fix)
+        };
+        let gate = BeatSlideParams::default().load_gate_m;
+        let (reported, last) = run(Some([-0.004, 0.3 * gate]));
+        assert_eq!(reported, 1);
+        let (disputed, last_disputed) = run(Some([-0.004, 2.0 * gate]));
+        assert_eq!(disputed, 0, "a disputed point is not reported");
+        assert_eq!(last_disputed, last, "but it steers the track as before");
+        assert!(last.is_some());
+        let (unread, _) = run(None);
+        assert_eq!(unread, 1, "without a reading nothing changes");
+    }
+
+    #[test]
+    fn a_load_gate_beyond_the_arrays_reach_is_refused() {
+        for bad in [-0.001, 0.011, f64::NAN] {
+            let params = BeatSlideParams {
+                load_gate_m: bad,
+                ..BeatSlideParams::default()
+            };
+            let e = BeatSlide::new(params, ArrayGeometry::default())
+                .err()
+                .map(|e| e.0)
+                .unwrap_or_default();
+            assert!(e.contains("load_gate_m"), "{bad}: {e}");
+        }
     }
 
     #[test]

@@ -85,6 +85,13 @@ pub struct BeatSlideParams {
     /// 2 mm off on the scene families, but costs the shipped arcs some of their figures
     /// (docs/tracker-beatslide.md, "The first placement").
     pub seat_stroke_m: f64,
+    /// Where the arm's load says where the sensor is (`TrackerInput::loaded_sensor`): at
+    /// rest (marks, searches) a point is reported where that reading puts it (it is within
+    /// 0.1-0.3 mm there); while sliding, where it scatters by 0.3-0.6 mm RMS, a point whose
+    /// place by that reading and by the tracker's own (belief, tilt and lag models) differ
+    /// by more than this across the path is not reported (it still steers), m: about three
+    /// times that scatter. 0 ignores the reading.
+    pub load_gate_m: f64,
 }
 
 impl Default for BeatSlideParams {
@@ -119,6 +126,7 @@ impl Default for BeatSlideParams {
             tilt_deflection: 0.027,
             return_speed_m_s: 0.01,
             seat_stroke_m: 0.0,
+            load_gate_m: 0.0015,
         }
     }
 }

@@ -184,6 +184,7 @@ mod tests {
             frame: &frame,
             sensor: at,
             settled,
+            loaded_sensor: None,
         })
         .motion
     }

@@ -176,6 +176,7 @@ impl BeatSlide {
             kernel,
             sensor,
             lag_dir: window.mean_lag(),
+            felt_offset: window.mean_felt_offset(),
             noise_sd_n: f.noise_sd_n,
             aligned: Waveform::zeros(),
         })
@@ -273,7 +274,13 @@ impl BeatSlide {
         let sd_m = self.point_sd(fix_sd, fix.lag_dir);
         let located = self.located(fix.t_mid_s, point, fix.sensor, &fix.kernel, false, sd_m);
         self.record(point);
-        if !self.smeared(self.window_len_s()) {
+        // While sliding, the load's reading scatters by 0.3-1 mm (the joints' friction, the
+        // servo's transients): where it disagrees with the tracker's place for the point,
+        // neither is trusted, and the fix steers the track without being reported.
+        let disputed = self
+            .load_disagrees(fix.point(), point, fix.felt_offset)
+            .is_some();
+        if !self.smeared(self.window_len_s()) && !disputed {
             self.emit(TrackerEvent::Located(located));
         }
         self.spatial = SpatialPrior {
