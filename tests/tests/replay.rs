@@ -93,6 +93,70 @@ fn a_recorded_trial_replays_bit_for_bit_through_its_own_tracker() {
     assert!(!ok && err.contains("unknown tracker `seed2003`"), "{err}");
 }
 
+/// `beatslide` on the shipped sim config, whose `rod` section makes the daemon read where the
+/// arm's load puts the sensor: the reading is recorded with each frame the tracker saw, and
+/// replay feeds it back, so the points (placed with it at rest) come back to the bit.
+#[test]
+fn a_beatslide_trial_replays_bit_for_bit_with_the_rods_reading() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let config = e2e::write_config(dir.path(), &Setup::default());
+    let text = std::fs::read_to_string(&config).expect("config");
+    assert!(
+        text.contains("rod: ("),
+        "the shipped sim config describes its rod"
+    );
+    let tracker = "name: \"seed2002\",";
+    assert!(text.contains(tracker));
+    std::fs::write(&config, text.replacen(tracker, "name: \"beatslide\",", 1)).expect("write");
+    let (daemon, mut c) = e2e::start_with_config(dir.path(), config);
+    seed(&mut c);
+    call(&mut c, "track", json!({"length_m": 0.03}));
+    let (_, ended) = located_until_trial_end(&mut c);
+    daemon.stop();
+    let file = ended["summary"]["recording"]
+        .as_str()
+        .expect("recording")
+        .to_string();
+
+    // Every frame the tracker saw carries the reading, a few mm at most from the belief.
+    let bytes = std::fs::read(&file).expect("recording");
+    let (mut fed, mut read) = (0, 0);
+    for m in mcap::MessageStream::new(&bytes).expect("stream") {
+        let m = m.expect("message");
+        if m.channel.topic != "/tactile" {
+            continue;
+        }
+        let v: Value = serde_json::from_slice(&m.data).expect("json");
+        if v["tracker_settled"].is_null() {
+            continue;
+        }
+        fed += 1;
+        if let (Some(x), Some(z), Some(bx), Some(bz)) = (
+            v["loaded_x_m"].as_f64(),
+            v["loaded_z_m"].as_f64(),
+            v["sensor_x_m"].as_f64(),
+            v["sensor_z_m"].as_f64(),
+        ) {
+            read += 1;
+            assert!((x - bx).hypot(z - bz) < 0.01, "{v}");
+        }
+    }
+    assert!(fed > 100 && read == fed, "{read} of {fed} frames read");
+
+    let (ok, doc, err) = replay(&[&file, "--tracker", "beatslide", "--json"]);
+    assert!(ok, "{err}");
+    assert_eq!(doc["recorded_tracker"], "beatslide");
+    assert_eq!(doc["identical_to_recorded"], true, "{doc}");
+    let summary = ended["summary"]["located"].as_array().expect("summary");
+    let replayed = doc["located"].as_array().expect("located");
+    assert_eq!(replayed.len(), summary.len(), "{doc}");
+    for (r, l) in replayed.iter().zip(summary) {
+        for k in ["x_m", "z_m", "sensor_x_m", "sensor_z_m"] {
+            assert_eq!(bits(&r[k]), bits(&l[k]), "{k}: replayed {r}, live {l}");
+        }
+    }
+}
+
 #[test]
 fn a_recording_from_before_replay_is_refused_with_the_reason() {
     let fixture = concat!(
