@@ -134,6 +134,10 @@ impl Validate for control::sensor::ArrayGeometry {
 #[path = "sensor_tests.rs"]
 mod sensor_tests;
 
+#[cfg(test)]
+#[path = "rod_tests.rs"]
+mod rod_tests;
+
 /// The shipped simulator config with one more top-level `section` (for tests of a section).
 #[cfg(test)]
 pub(crate) fn shipped_with(section: &str) -> String {
