@@ -560,6 +560,20 @@ impl BeatSlide {
         Some(SurfacePoint::new(raw.x_m + felt[0], raw.z_m + felt[1]))
     }
 
+    /// A point found at rest over the window since `since`, placed at `raw` from the believed
+    /// `sensor`: where the arm's load puts the point and the sensor, if it was read over the
+    /// whole window. At rest that reading is within 0.1-0.3 mm, the better of the two
+    /// (docs/tracker-beatslide.md, "Where the arm's load puts the sensor").
+    fn placed_at_rest(
+        &self,
+        since: f64,
+        raw: SurfacePoint,
+        sensor: SurfacePoint,
+    ) -> Option<(SurfacePoint, SurfacePoint)> {
+        let felt = self.history.since(since).mean_felt_offset();
+        Some((self.load_place(raw, felt)?, self.load_place(sensor, felt)?))
+    }
+
     fn record(&mut self, point: SurfacePoint) {
         if let Some(previous) = self.last_fix {
             self.path_length_m += previous.distance_to(&point);
@@ -643,17 +657,15 @@ impl BeatSlide {
                 let point =
                     SurfacePoint::new(raw.x_m - lag * lag_dir[0], raw.z_m - lag * lag_dir[1]);
                 let mut sd_m = self.point_sd(observation.sd_m, lag_dir);
-                // At rest the load's reading (within 0.1-0.3 mm) is the better one
-                // (docs/tracker-beatslide.md, "Where the arm's load puts the sensor"): the
-                // point is reported where it puts it. A mark from both sides is two windows
-                // and has no lag left in it: it stays as it is.
-                let felt = self.history.since(since).mean_felt_offset();
-                let (reported, at) = match (self.load_place(raw, felt), felt) {
-                    (Some(loaded), Some([dx, dz])) if side_sd.is_none() => {
+                // Reported where the arm's load puts it, if read. A mark from both sides is
+                // two windows and has no lag left in it: it stays as it is.
+                let placed = self.placed_at_rest(since, raw, sensor);
+                let (reported, at) = match placed.filter(|_| side_sd.is_none()) {
+                    Some(placed) => {
                         sd_m = self.fix_sd(&fit);
-                        (loaded, SurfacePoint::new(sensor.x_m + dx, sensor.z_m + dz))
+                        placed
                     }
-                    _ => (point, sensor),
+                    None => (point, sensor),
                 };
                 let located = self.located(0.5 * (since + t), reported, at, &fit, true, sd_m);
                 if self.seeds.len() == MAX_SEEDS {

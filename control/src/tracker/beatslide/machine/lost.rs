@@ -151,14 +151,13 @@ impl BeatSlide {
         };
         self.learn_pulse(&found, &fit, t - since, t);
         let mut sd_m = self.point_sd(observation.sd_m, observation.lag_dir);
-        // At rest, as at a mark: the point is reported where the arm's load puts it.
-        let felt = self.history.since(since).mean_felt_offset();
-        let (reported, at) = match (self.load_place(observation.point, felt), felt) {
-            (Some(loaded), Some([dx, dz])) => {
+        // At rest, as at a mark: reported where the arm's load puts it, if read.
+        let (reported, at) = match self.placed_at_rest(since, observation.point, sensor) {
+            Some(placed) => {
                 sd_m = observation.sd_m;
-                (loaded, SurfacePoint::new(sensor.x_m + dx, sensor.z_m + dz))
+                placed
             }
-            _ => (point, sensor),
+            None => (point, sensor),
         };
         let located = self.located(0.5 * (since + t), reported, at, &fit, false, sd_m);
         self.record(point);
