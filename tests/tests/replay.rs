@@ -7,8 +7,8 @@ mod e2e;
 
 use std::process::Command;
 
-use e2e::{Setup, call, located_until_trial_end, seed, start};
-use serde_json::{Value, json};
+use e2e::{Setup, seed, start, track_to_recording};
+use serde_json::Value;
 
 fn replay(args: &[&str]) -> (bool, Value, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_pt-console"))
@@ -33,13 +33,7 @@ fn a_recorded_trial_replays_bit_for_bit_through_its_own_tracker() {
     let dir = tempfile::tempdir().expect("tmp");
     let (daemon, mut c) = start(dir.path(), &Setup::default());
     seed(&mut c);
-    call(&mut c, "track", json!({"length_m": 0.04}));
-    let (live, ended) = located_until_trial_end(&mut c);
-    daemon.stop();
-    let file = ended["summary"]["recording"]
-        .as_str()
-        .expect("recording")
-        .to_string();
+    let (live, ended, file) = track_to_recording(daemon, &mut c, 0.04);
     assert!(!live.is_empty(), "no point located while tracking");
 
     let (ok, doc, err) = replay(&[&file, "--tracker", "seed2002", "--json"]);
@@ -110,13 +104,7 @@ fn a_beatslide_trial_replays_bit_for_bit_with_the_rods_reading() {
     std::fs::write(&config, text.replacen(tracker, "name: \"beatslide\",", 1)).expect("write");
     let (daemon, mut c) = e2e::start_with_config(dir.path(), config);
     seed(&mut c);
-    call(&mut c, "track", json!({"length_m": 0.03}));
-    let (_, ended) = located_until_trial_end(&mut c);
-    daemon.stop();
-    let file = ended["summary"]["recording"]
-        .as_str()
-        .expect("recording")
-        .to_string();
+    let (_, ended, file) = track_to_recording(daemon, &mut c, 0.03);
 
     // Every frame the tracker saw carries the reading, a few mm at most from the belief.
     let bytes = std::fs::read(&file).expect("recording");

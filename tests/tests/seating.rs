@@ -11,8 +11,7 @@ use std::time::Duration;
 
 use daemon::console::client::Client;
 use e2e::{
-    Setup, call, located_until_trial_end, scene, start_with_config, wait_event, wait_state,
-    write_config,
+    Setup, call, scene, start_with_config, track_to_recording, wait_event, wait_state, write_config,
 };
 use serde_json::{Value, json};
 
@@ -118,13 +117,7 @@ fn the_first_mark_seats_the_sensor_and_the_trial_replays_bit_for_bit() {
     });
     assert_eq!(e["kind"], "located", "{e}");
     wait_state(&mut c, "holding");
-    call(&mut c, "track", json!({"length_m": 0.03}));
-    let (_, ended) = located_until_trial_end(&mut c);
-    daemon.stop();
-    let file = ended["summary"]["recording"]
-        .as_str()
-        .expect("recording")
-        .to_string();
+    let (_, _, file) = track_to_recording(daemon, &mut c, 0.03);
 
     let out = Command::new(env!("CARGO_BIN_EXE_pt-console"))
         .args(["replay", &file, "--tracker", "beatslide", "--json"])

@@ -263,6 +263,23 @@ pub fn located_until_trial_end(c: &mut Client) -> (Vec<Value>, Value) {
     }
 }
 
+/// Track `length_m` from the seeds, wait for the trial's end and stop the daemon: the points
+/// streamed while tracking, the trial's end event and its recording's path.
+pub fn track_to_recording(
+    daemon: Running,
+    c: &mut Client,
+    length_m: f64,
+) -> (Vec<Value>, Value, String) {
+    call(c, "track", json!({ "length_m": length_m }));
+    let (live, ended) = located_until_trial_end(c);
+    daemon.stop();
+    let file = ended["summary"]["recording"]
+        .as_str()
+        .expect("recording")
+        .to_string();
+    (live, ended, file)
+}
+
 /// Enable, move to each placement and mark it; both marks must find the pulse.
 pub fn seed(c: &mut Client) {
     call(
