@@ -130,6 +130,9 @@ pub struct World {
     pub depth_m: f64,
     pub noise_sd_n: f64,
     pub geometry: ArrayGeometry,
+    /// The tissue (artery and all) moving across `z` as breathing moves it: amplitude m,
+    /// frequency Hz, phase rad; zero amplitude: at rest.
+    pub breathing: (f64, f64, f64),
     rng: Rng,
     seq: u64,
 }
@@ -146,6 +149,7 @@ impl World {
             depth_m: 0.005,
             noise_sd_n: 0.012,
             geometry: ArrayGeometry::default(),
+            breathing: (0.0, 0.0, 0.0),
             rng: Rng::new(seed),
             seq: 0,
         }
@@ -153,6 +157,12 @@ impl World {
 
     pub fn t_s(&self) -> f64 {
         self.seq as f64 * self.geometry.dt_s()
+    }
+
+    /// How far the tissue has moved across `z` at `t`, m.
+    pub fn tissue_shift_m(&self, t: f64) -> f64 {
+        let (a, f, phase) = self.breathing;
+        a * (std::f64::consts::TAU * f * t + phase).sin()
     }
 
     /// Smoothed square wave in 0..1 (the solenoid inflating and venting the tube).
@@ -200,10 +210,14 @@ impl World {
     pub fn frame(&mut self, sensor: &SurfacePoint) -> TactileFrame {
         let t_s = self.t_s();
         let pulse = self.pulse(t_s);
+        // The tissue moving by `shift` is the sensor moving by `-shift` over still tissue.
+        let shift = self.tissue_shift_m(t_s);
         let mut force_n = [0.0; ELEMENTS];
         for (e, f) in force_n.iter_mut().enumerate() {
-            let centre =
-                SurfacePoint::new(sensor.x_m, sensor.z_m + self.geometry.offset_z_m(e as f64));
+            let centre = SurfacePoint::new(
+                sensor.x_m,
+                sensor.z_m - shift + self.geometry.offset_z_m(e as f64),
+            );
             *f = 0.4
                 + self.swing_n * pulse * self.element_gain(&centre)
                 + self.noise_sd_n * self.rng.normal();

@@ -114,8 +114,13 @@ impl History {
     /// The entries with `t_s >= from_s`, oldest first, as up to two slices of frames and the
     /// matching slices of believed sensor positions.
     pub fn since(&self, from_s: f64) -> Window<'_> {
+        self.between(from_s, f64::INFINITY)
+    }
+
+    /// The entries with `from_s <= t_s < to_s`, oldest first (a beat inside a longer window).
+    pub fn between(&self, from_s: f64, to_s: f64) -> Window<'_> {
         let start = self.first_at_or_after(from_s);
-        let count = self.len - start;
+        let count = self.first_at_or_after(to_s).saturating_sub(start);
         let first = self.index(start);
         if count == 0 {
             return Window {
@@ -264,6 +269,12 @@ mod tests {
         assert_eq!(h.since(0.035).mean_felt_offset(), None);
         assert_eq!(h.since(0.0).len(), 5);
         assert!(h.since(1.0).is_empty());
+        // A span inside: its end excluded, across the ring's wrap, and empty when reversed.
+        let seqs: Vec<u64> = h.between(0.035, 0.065).frames().map(|f| f.seq).collect();
+        assert_eq!(seqs, vec![4, 5, 6]);
+        let xs: Vec<f64> = h.between(0.0, 0.045).sensors().map(|s| s.x_m).collect();
+        assert_eq!(xs, vec![3.0, 4.0]);
+        assert!(h.between(0.06, 0.04).is_empty());
         h.clear();
         assert!(h.is_empty() && h.newest_t_s().is_none());
     }

@@ -14,6 +14,7 @@
 //! docs/tracker-beatslide.md describes every rule.
 
 mod lost;
+mod rest_beats;
 mod seating;
 mod sliding;
 
@@ -668,6 +669,12 @@ impl BeatSlide {
                     None => (point, sensor),
                 };
                 let located = self.located(0.5 * (since + t), reported, at, &fit, true, sd_m);
+                // Under moving tissue the window's average is no moment's place: report
+                // the beats' (`machine/rest_beats.rs`). A mark from both sides stays.
+                let located = match side_sd {
+                    Some(_) => Some(located),
+                    None => self.at_rest_reported(since, t, located, &fit, raw),
+                };
                 if self.seeds.len() == MAX_SEEDS {
                     self.seeds.remove(0);
                     self.seed_points.remove(0);
@@ -676,7 +683,9 @@ impl BeatSlide {
                 self.seeds.push(observation);
                 self.seed_points.push(point);
                 self.seed_sensors.push(sensor);
-                self.emit(TrackerEvent::Located(located));
+                if let Some(located) = located {
+                    self.emit(TrackerEvent::Located(located));
+                }
                 self.state = State::Seeding;
             }
             Err(why) => {

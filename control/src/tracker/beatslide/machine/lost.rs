@@ -161,7 +161,9 @@ impl BeatSlide {
         };
         let located = self.located(0.5 * (since + t), reported, at, &fit, false, sd_m);
         self.record(point);
-        if !self.smeared(t - since) {
+        if !self.smeared(t - since)
+            && let Some(located) = self.at_rest_reported(since, t, located, &fit, observation.point)
+        {
             self.emit(TrackerEvent::Located(located));
         }
         if self.length_reached() {

@@ -1,0 +1,188 @@
+//! A window at rest, beat by beat: did the artery move under the still sensor?
+//!
+//! A mark or a search at rest localizes over its whole window (4 s or more): where the
+//! artery lay on average. Under breathing the tissue moves 1-4 mm across the course at
+//! 0.2-0.3 Hz, a cycle per window, so that average is where the artery lay at no moment in
+//! particular: first seed points were 2-3.4 mm from where the artery was at the window's
+//! middle (16 of the breathing family's 48 points more than 2 mm off, tuning seeds). So the
+//! window is also localized beat by beat with the pulse it just taught; if the beats'
+//! places differ by more than their noise explains, the artery moved, and the point
+//! reported is the median of the last three beats' places, at that beat's time (a single
+//! beat spoiled by an irregular heart, its pulse cut by the window's edge, is then not the
+//! one reported: reporting the last beat put 2 of 240 still marks 1.3-2.3 mm off on the
+//! irregular-heart families). The whole window still steers: the mean course is what the
+//! path model follows.
+//!
+//! The test is a chi-square of the beats' places about their weighted mean, at a false
+//! alarm of `MOTION_FALSE_ALARM` on a still artery. A weak pulse gives one-beat places
+//! too noisy to show motion: then the window is reported as before, and it can only be
+//! caught later (`smeared`, once sliding fixes have measured the motion). Dropping the
+//! beat farthest from the median before the test made it blind on four-second windows of
+//! three or four beats (breathing's seed points 0.39 -> 1.07 mm RMS).
+
+use super::*;
+use crate::signal::detection_bound::normal_quantile;
+
+/// Beats localized at most (the window's last ones).
+const MAX_BEATS: usize = 8;
+/// Fewest beats for the test.
+const MIN_BEATS: usize = 3;
+/// False alarm of the test on a still artery.
+const MOTION_FALSE_ALARM: f64 = 1e-3;
+/// A one-beat place's error beyond its noise (the kernel's shape, the harmonic fit), m:
+/// the test asks for motion beyond it.
+const BEAT_FLOOR_M: f64 = 1.5e-4;
+
+/// What the beats of a window at rest say.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum RestBeats {
+    /// Still, or too few or too noisy beats to tell: the window's place stands.
+    Still,
+    /// The artery moved: the fix to report (the median of the last three beats), if they
+    /// gave one on the array at this artery's amplitude.
+    Moved(Option<BeatFix>),
+}
+
+impl BeatSlide {
+    /// Localize the last beats of the window at rest from `since` to `t` (the pulse must
+    /// have been learned) and test them for motion.
+    fn rest_beats(&mut self, since: f64, t: f64) -> RestBeats {
+        let Some(pulse) = self.pulse else {
+            return RestBeats::Still;
+        };
+        let period = pulse.clock.period_s();
+        // Newest first; a beat that gave no fix on the array is left out.
+        let mut fixes = [None; MAX_BEATS];
+        let mut n = 0;
+        for k in 0..MAX_BEATS {
+            let (from, to) = (t - (k + 1) as f64 * period, t - k as f64 * period + 1e-9);
+            if from < since {
+                break;
+            }
+            let window = self.history.between(from, to);
+            let fix = analyse_window(
+                &window,
+                pulse.clock.phase(),
+                &pulse.template,
+                self.spatial,
+                MAX_DELAY_FRACTION,
+                self.geometry.noise_sd_n,
+                &self.geometry,
+                &mut self.noise,
+            );
+            if let Ok(fix) = fix
+                && !fix.kernel.at_edge
+                && fix.kernel.offset_se_m.is_finite()
+            {
+                fixes[n] = Some(fix);
+                n += 1;
+            }
+        }
+        let mut places = [(0.0, 0.0); MAX_BEATS];
+        for (place, fix) in places.iter_mut().zip(fixes.iter().flatten()) {
+            *place = (fix.point().z_m, fix.kernel.offset_se_m.hypot(BEAT_FLOOR_M));
+        }
+        if !moved(&places[..n]) {
+            return RestBeats::Still;
+        }
+        // The median of the last three beats' places: one beat spoiled by an irregular
+        // heart (its pulse cut by the window's edge) is not the one reported.
+        let (Some(a), Some(b), Some(c)) = (fixes[0], fixes[1], fixes[2]) else {
+            return RestBeats::Moved(None);
+        };
+        let mut last = [a, b, c];
+        last.sort_by(|a, b| a.point().z_m.total_cmp(&b.point().z_m));
+        let median = last[1];
+        RestBeats::Moved(self.check_amplitude(&median.kernel).ok().map(|()| median))
+    }
+}
+
+impl BeatSlide {
+    /// A point found at rest over a window, `located` (its fix `window_fit`, placed from
+    /// `window_raw`), as the beats say it should be reported: unchanged when still, moved
+    /// to the reported beat's place and time (the window's lag and placement kept, its fix's
+    /// SD swapped for the beat's) when the artery moved, none when no beat can say.
+    pub(super) fn at_rest_reported(
+        &mut self,
+        since: f64,
+        t: f64,
+        located: LocatedPoint,
+        window_fit: &KernelFit,
+        window_raw: SurfacePoint,
+    ) -> Option<LocatedPoint> {
+        match self.rest_beats(since, t) {
+            RestBeats::Still => Some(located),
+            RestBeats::Moved(None) => None,
+            RestBeats::Moved(Some(beat)) => {
+                let shift = beat.point().z_m - window_raw.z_m;
+                let (window_sd, beat_sd) = (self.fix_sd(window_fit), self.fix_sd(&beat.kernel));
+                let sd_m = located.sd_m.unwrap_or(window_sd);
+                let sd_m = (sd_m * sd_m - window_sd * window_sd + beat_sd * beat_sd)
+                    .max(beat_sd * beat_sd)
+                    .sqrt();
+                Some(LocatedPoint {
+                    t_s: beat.t_mid_s,
+                    point: SurfacePoint::new(located.point.x_m, located.point.z_m + shift),
+                    element: beat.kernel.element,
+                    amplitude_n: self.amplitude_n(&beat.kernel),
+                    sd_m: Some(sd_m),
+                    ..located
+                })
+            }
+        }
+    }
+}
+
+/// Do places `(z, se)` differ by more than their SEs explain?
+fn moved(places: &[(f64, f64)]) -> bool {
+    if places.len() < MIN_BEATS {
+        return false;
+    }
+    let (sw, swz) = places.iter().fold((0.0, 0.0), |(sw, swz), &(z, se)| {
+        (sw + 1.0 / (se * se), swz + z / (se * se))
+    });
+    let mean = swz / sw;
+    let chi2: f64 = places
+        .iter()
+        .map(|&(z, se)| ((z - mean) / se).powi(2))
+        .sum();
+    chi2 > chi2_quantile(1.0 - MOTION_FALSE_ALARM, (places.len() - 1) as f64)
+}
+
+/// Chi-square quantile (Wilson-Hilferty: within a few per cent from 2 degrees of freedom up,
+/// which is all a threshold at 1e-3 needs).
+fn chi2_quantile(p: f64, dof: f64) -> f64 {
+    let a = 2.0 / (9.0 * dof);
+    dof * (1.0 - a + normal_quantile(p) * a.sqrt()).powi(3)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_chi_square_quantile_matches_tabulated_values() {
+        // 99.9 % points: 13.816 (2), 16.266 (3), 24.322 (7).
+        for (dof, q) in [(2.0, 13.816), (3.0, 16.266), (7.0, 24.322)] {
+            let got = chi2_quantile(0.999, dof);
+            assert!((got - q).abs() < 0.05 * q, "dof {dof}: {got} against {q}");
+        }
+    }
+
+    #[test]
+    fn places_within_their_noise_are_still_and_a_swing_is_motion() {
+        let se = 2e-4;
+        let at = |d: &[f64], step: f64, se: f64| -> Vec<(f64, f64)> {
+            d.iter().map(|d| (0.01 + d * step, se)).collect()
+        };
+        assert!(!moved(&at(&[0.1, -0.2, 0.15, -0.05, 0.0], se, se)));
+        // A 2 mm swing across five beats, at 0.2 mm SE each, and across three.
+        let swing = at(&[-1.0, -0.5, 0.0, 0.5, 1.0], 1e-3, se);
+        assert!(moved(&swing));
+        assert!(moved(&at(&[0.0, 1.0, 2.0], 1e-3, se)));
+        // The same swing at 2 mm SE each is not shown.
+        assert!(!moved(&at(&[-1.0, -0.5, 0.0, 0.5, 1.0], 1e-3, 2e-3)));
+        // Two beats cannot tell.
+        assert!(!moved(&swing[..2]));
+    }
+}
