@@ -324,6 +324,17 @@ impl BeatSlide {
         self.last_miss
     }
 
+    /// Report a point located while tracking, if the artery's centre lay under the array:
+    /// beyond the outer elements' centres the array felt only a flank and the place is
+    /// extrapolated from it; such a fix steers, unreported. (A mark's point is its result
+    /// and is always reported, with its SD.)
+    fn report(&mut self, located: LocatedPoint) {
+        let last = (crate::types::ELEMENTS - 1) as f64;
+        if (0.0..=last).contains(&located.element) {
+            self.emit(TrackerEvent::Located(located));
+        }
+    }
+
     fn emit(&mut self, event: TrackerEvent) {
         // Room for a whole analysis is checked before each one; overflow would mean that
         // accounting is broken.
@@ -670,10 +681,15 @@ impl BeatSlide {
                 };
                 let located = self.located(0.5 * (since + t), reported, at, &fit, true, sd_m);
                 // Under moving tissue the window's average is no moment's place: report
-                // the beats' (`machine/rest_beats.rs`). A mark from both sides stays.
+                // the beats' (`machine/rest_beats.rs`). A mark from both sides stays. The
+                // mark must answer (the runner and the daemon wait for its result), so
+                // where the beats give no place the window's is reported, as on still
+                // tissue; so is a place beyond the array's end, with its SD (`report`).
                 let located = match side_sd {
-                    Some(_) => Some(located),
-                    None => self.at_rest_reported(since, t, located, &fit, raw),
+                    Some(_) => located,
+                    None => self
+                        .at_rest_reported(since, t, located, &fit, raw)
+                        .unwrap_or(located),
                 };
                 if self.seeds.len() == MAX_SEEDS {
                     self.seeds.remove(0);
@@ -683,9 +699,7 @@ impl BeatSlide {
                 self.seeds.push(observation);
                 self.seed_points.push(point);
                 self.seed_sensors.push(sensor);
-                if let Some(located) = located {
-                    self.emit(TrackerEvent::Located(located));
-                }
+                self.emit(TrackerEvent::Located(located));
                 self.state = State::Seeding;
             }
             Err(why) => {
@@ -1368,6 +1382,36 @@ mod tests {
         assert!(last.is_some());
         let (unread, _) = run(None);
         assert_eq!(unread, 1, "without a reading nothing changes");
+    }
+
+    #[test]
+    fn a_sliding_fix_beyond_the_arrays_outer_elements_steers_but_is_not_reported() {
+        let run = |element: f64| {
+            let mut t = with_pulse(0.08);
+            let f = fix(0.0);
+            let point = t.accept(&f, false).expect("a clear fix on the path");
+            let mut beyond = f;
+            beyond.kernel.element = element;
+            t.after_fix(&beyond, point, f.sensor, 10.0);
+            let mut located = 0;
+            while let Some(e) = t.events.pop() {
+                located += usize::from(matches!(e, TrackerEvent::Located(_)));
+            }
+            (located, t.last_fix)
+        };
+        // Both outer elements' centres are still under the array; a hair beyond is not.
+        assert_eq!(run(0.0).0, 1);
+        assert_eq!(run(9.0).0, 1);
+        let (below, last_below) = run(-0.01);
+        let (above, last_above) = run(9.01);
+        assert_eq!(
+            (below, above),
+            (0, 0),
+            "an extrapolated place is not reported"
+        );
+        assert_eq!(last_below, run(4.5).1, "but it steers the track as before");
+        assert_eq!(last_above, run(4.5).1);
+        assert_eq!(run(f64::NAN).0, 0);
     }
 
     #[test]

@@ -164,7 +164,7 @@ impl BeatSlide {
         if !self.smeared(t - since)
             && let Some(located) = self.at_rest_reported(since, t, located, &fit, observation.point)
         {
-            self.emit(TrackerEvent::Located(located));
+            self.report(located);
         }
         if self.length_reached() {
             self.finish(EndReason::LengthReached, t);

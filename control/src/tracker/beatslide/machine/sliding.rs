@@ -281,7 +281,7 @@ impl BeatSlide {
             .load_disagrees(fix.point(), point, fix.felt_offset)
             .is_some();
         if !self.smeared(self.window_len_s()) && !disputed {
-            self.emit(TrackerEvent::Located(located));
+            self.report(located);
         }
         self.spatial = SpatialPrior {
             element: fix.kernel.element,
