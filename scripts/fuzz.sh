@@ -16,7 +16,7 @@ cd "$(dirname "$0")/../fuzz"
 seconds="${1:-60}"
 shift || true
 all=(tactile_decoder can_decoder console_request config_loader scene_loader fem_model_loader
-    recording_reader)
+    gmsh_reader recording_reader)
 if [ "$#" -gt 0 ]; then targets=("$@"); else targets=("${all[@]}"); fi
 sanitizer="${FUZZ_SANITIZER:-none}"
 status=0

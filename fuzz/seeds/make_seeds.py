@@ -83,6 +83,8 @@ def copy_files(target, files):
 copy_files("config_loader", [ROOT / "config/sim.ron", ROOT / "config/lab.ron"])
 copy_files("scene_loader", sorted((ROOT / "config/scenes").glob("*.ron")))
 copy_files("fem_model_loader", sorted((ROOT / "config/fem").glob("*.ron")))
+# gmsh_reader: the FEM crate's test meshes, ASCII and binary, good and refused.
+copy_files("gmsh_reader", sorted((ROOT / "sim-backend/fem/tests/data").glob("*.msh")))
 
 # console_request: one line per file, every verb and argument of docs/console-protocol.md.
 console = {

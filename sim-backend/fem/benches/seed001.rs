@@ -5,10 +5,11 @@
 //! factorization's multiply-adds (GFlop).
 //!
 //! cargo bench -p pulsetrack-fem --bench seed001 -- [--refine 0,1,2,3] [--reps 5]
-//!     [--size-scale S] [--ordering split|node|dof|nd] (default split) [--export DIR]   (DIR/k.mtx and DIR/f.txt for scripts/fem_superlu.py,
-//!     finest level)
+//!     [--size-scale S] [--ordering split|node|dof|nd] (default split) [--export DIR]
+//!
+//! `--export DIR` writes the finest level's constrained system and its mesh for the Python
+//! comparison (scripts/fem_compare.sh; the files are listed in `export.rs`).
 
-use std::io::Write;
 use std::time::Instant;
 
 use pulsetrack_fem::boundary::supports;
@@ -17,6 +18,9 @@ use pulsetrack_fem::recovery::von_mises_of;
 use pulsetrack_fem::run::build_mesh;
 use pulsetrack_fem::sparse::{Ordering, factor_flops};
 use pulsetrack_fem::study::shipped;
+
+#[path = "export/mod.rs"]
+mod export;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -126,7 +130,17 @@ fn main() {
                 && Some(&level) == levels.last()
                 && rows.len() == 1
             {
-                export_system(dir, &lm, &fixed, &pres);
+                export::write(
+                    dir,
+                    &export::Case {
+                        lm: &lm,
+                        fixed: &fixed,
+                        pres: &pres,
+                        lumen_unit: &unit,
+                        p_sys,
+                        peak_pa: peak,
+                    },
+                );
             }
         }
         let col = |i: usize| median(rows.iter().map(|r| r[i]).collect());
@@ -147,46 +161,4 @@ fn main() {
             flops * 1e-9
         );
     }
-}
-
-/// Write the constrained system (free DOFs only, lower triangle, Matrix Market symmetric) and
-/// the platen load case's right-hand side.
-fn export_system(dir: &str, lm: &LinearModel<'_>, fixed: &[bool], pres: &[f64]) {
-    let p = &lm.pattern;
-    let mut index = vec![usize::MAX; p.n];
-    let mut n_free = 0;
-    for i in 0..p.n {
-        if !fixed[i] {
-            index[i] = n_free;
-            n_free += 1;
-        }
-    }
-    let mut rhs = vec![0.0; n_free];
-    let mut entries = Vec::new();
-    for col in 0..p.n {
-        for k in p.col_ptr[col]..p.col_ptr[col + 1] {
-            let row = p.row_idx[k];
-            let v = lm.values[k];
-            match (fixed[row], fixed[col]) {
-                (false, false) => entries.push((index[row], index[col], v)),
-                (false, true) => rhs[index[row]] -= v * pres[col],
-                (true, false) => rhs[index[col]] -= v * pres[row],
-                _ => {}
-            }
-        }
-    }
-    std::fs::create_dir_all(dir).expect("export dir");
-    let mut f =
-        std::io::BufWriter::new(std::fs::File::create(format!("{dir}/k.mtx")).expect("k.mtx"));
-    writeln!(f, "%%MatrixMarket matrix coordinate real symmetric").expect("write");
-    writeln!(f, "{n_free} {n_free} {}", entries.len()).expect("write");
-    for (r, c, v) in entries {
-        writeln!(f, "{} {} {:.17e}", r + 1, c + 1, v).expect("write");
-    }
-    let mut g =
-        std::io::BufWriter::new(std::fs::File::create(format!("{dir}/f.txt")).expect("f.txt"));
-    for v in rhs {
-        writeln!(g, "{v:.17e}").expect("write");
-    }
-    eprintln!("exported {n_free} free DOFs to {dir}");
 }
