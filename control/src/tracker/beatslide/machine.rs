@@ -231,12 +231,15 @@ pub struct BeatSlide {
     pending_end: Option<EndReason>,
     events: EventQueue,
     rejected_frames: u64,
+    /// The pulse amplitude of the last fix offered for reporting, N (NaN before one).
+    previous_amplitude_n: f64,
     last_miss: Option<Miss>,
 }
 
-/// Smallest share of this artery's usual amplitude at which a point located while
-/// tracking is reported (fixes down to `FAINT_FRACTION` still steer). Chosen on the tuning
-/// seeds: 0.6 / 0.7 left 25 / 17 of 32 points more than 2 mm off, at 0.5 / 2 % of the points.
+/// Smallest share of the lower of this artery's usual amplitude and the last fix's at
+/// which a point located while tracking is reported (fixes down to `FAINT_FRACTION` of the
+/// usual still steer). Chosen on the tuning seeds: 19 of 32 points more than 2 mm off left,
+/// at 1.3 % of the points (docs/BENCHMARKS.md).
 const REPORT_FRACTION: f64 = 0.7;
 
 /// Most seed points kept.
@@ -291,6 +294,7 @@ impl BeatSlide {
             pending_end: None,
             events: EventQueue::default(),
             rejected_frames: 0,
+            previous_amplitude_n: f64::NAN,
             last_miss: None,
         })
     }
@@ -330,16 +334,21 @@ impl BeatSlide {
     }
 
     /// Report a point located while tracking, if the artery's centre lay under the array
-    /// and its pulse was near this artery's usual amplitude: beyond the outer elements'
-    /// centres the array felt only a flank and the place is extrapolated from it, and a
-    /// pulse well below the usual was felt smeared (the artery moving under the beat) or
-    /// from its edge. Such a fix steers, unreported. (A mark's point is its result and is
+    /// and its pulse was near this artery's usual amplitude and the last fix's: beyond the
+    /// outer elements' centres the array felt only a flank and the place is extrapolated
+    /// from it, and a pulse well below both was felt smeared (the artery moving under the
+    /// beat) or from its edge. Such a fix steers, unreported. (A mark's point is its result and is
     /// always reported, with its SD.)
     fn report(&mut self, located: LocatedPoint) {
         let last = (crate::types::ELEMENTS - 1) as f64;
+        // Against the usual amplitude or the last fix's, the lower: a pulse fading along
+        // the artery (an occlusion) fades fix by fix and stays reported; a beat felt
+        // smeared is a dip below both.
         let usual_n = self.pulse.map_or(0.0, |p| p.amplitude_n);
+        let reference_n = usual_n.min(self.previous_amplitude_n);
+        self.previous_amplitude_n = located.amplitude_n;
         if (0.0..=last).contains(&located.element)
-            && located.amplitude_n >= REPORT_FRACTION * usual_n
+            && located.amplitude_n >= REPORT_FRACTION * reference_n
         {
             self.emit(TrackerEvent::Located(located));
         }
@@ -1447,6 +1456,20 @@ mod tests {
             "a fix below the share of the usual amplitude is not reported"
         );
         assert_eq!(last_weak, last, "but it steers the track as before");
+        // A pulse fading fix by fix (the last fix 10 % above this one) stays reported,
+        // however far below the usual; a dip below the last fix is not.
+        let after = |previous_n: f64| {
+            let mut t = with_pulse(2.0 * felt);
+            t.previous_amplitude_n = previous_n;
+            let f = fix(0.0);
+            let point = t.accept(&f, false).expect("a clear fix on the path");
+            t.after_fix(&f, point, f.sensor, 10.0);
+            std::iter::from_fn(|| t.events.pop())
+                .filter(|e| matches!(e, TrackerEvent::Located(_)))
+                .count()
+        };
+        assert_eq!(after(1.1 * felt), 1);
+        assert_eq!(after(1.5 * felt), 0);
     }
 
     #[test]
