@@ -1378,19 +1378,27 @@ mod tests {
 
     /// While sliding, a fix whose place the load disputes steers the track (the path
     /// grows, the last fix moves) but is not reported; an undisputed one is reported.
+    /// `accepted` taken on the path, then `after` (the same fix, or one changed after the
+    /// gate) handed on: the points reported, and where the track then is.
+    fn reported_after(
+        mut t: BeatSlide,
+        accepted: &BeatFix,
+        after: &BeatFix,
+    ) -> (usize, Option<SurfacePoint>) {
+        let point = t.accept(accepted, false).expect("a clear fix on the path");
+        t.after_fix(after, point, accepted.sensor, 10.0);
+        let located = std::iter::from_fn(|| t.events.pop())
+            .filter(|e| matches!(e, TrackerEvent::Located(_)))
+            .count();
+        (located, t.last_fix)
+    }
+
     #[test]
     fn a_sliding_fix_the_load_disputes_steers_but_is_not_reported() {
         let run = |felt: Option<[f64; 2]>| {
-            let mut t = with_pulse(0.08);
             let mut f = fix(0.0);
             f.felt_offset = felt;
-            let point = t.accept(&f, false).expect("a clear fix on the path");
-            t.after_fix(&f, point, f.sensor, 10.0);
-            let mut located = 0;
-            while let Some(e) = t.events.pop() {
-                located += usize::from(matches!(e, TrackerEvent::Located(_)));
-            }
-            (located, t.last_fix)
+            reported_after(with_pulse(0.08), &f, &f)
         };
         let gate = BeatSlideParams::default().load_gate_m;
         let (reported, last) = run(Some([-0.004, 0.3 * gate]));
@@ -1406,17 +1414,10 @@ mod tests {
     #[test]
     fn a_sliding_fix_beyond_the_arrays_outer_elements_steers_but_is_not_reported() {
         let run = |element: f64| {
-            let mut t = with_pulse(0.08);
             let f = fix(0.0);
-            let point = t.accept(&f, false).expect("a clear fix on the path");
             let mut beyond = f;
             beyond.kernel.element = element;
-            t.after_fix(&beyond, point, f.sensor, 10.0);
-            let mut located = 0;
-            while let Some(e) = t.events.pop() {
-                located += usize::from(matches!(e, TrackerEvent::Located(_)));
-            }
-            (located, t.last_fix)
+            reported_after(with_pulse(0.08), &f, &beyond)
         };
         // Both outer elements' centres are still under the array; a hair beyond is not.
         assert_eq!(run(0.0).0, 1);
@@ -1435,17 +1436,7 @@ mod tests {
 
     #[test]
     fn a_sliding_fix_well_below_the_usual_amplitude_steers_but_is_not_reported() {
-        let run = |usual_n: f64| {
-            let mut t = with_pulse(usual_n);
-            let f = fix(0.0);
-            let point = t.accept(&f, false).expect("a clear fix on the path");
-            t.after_fix(&f, point, f.sensor, 10.0);
-            let mut located = 0;
-            while let Some(e) = t.events.pop() {
-                located += usize::from(matches!(e, TrackerEvent::Located(_)));
-            }
-            (located, t.last_fix)
-        };
+        let run = |usual_n: f64| reported_after(with_pulse(usual_n), &fix(0.0), &fix(0.0));
         let felt = with_pulse(1.0).amplitude_n(&fix(0.0).kernel);
         let (at_usual, last) = run(felt);
         assert_eq!(at_usual, 1);
@@ -1461,12 +1452,7 @@ mod tests {
         let after = |previous_n: f64| {
             let mut t = with_pulse(2.0 * felt);
             t.previous_amplitude_n = previous_n;
-            let f = fix(0.0);
-            let point = t.accept(&f, false).expect("a clear fix on the path");
-            t.after_fix(&f, point, f.sensor, 10.0);
-            std::iter::from_fn(|| t.events.pop())
-                .filter(|e| matches!(e, TrackerEvent::Located(_)))
-                .count()
+            reported_after(t, &fix(0.0), &fix(0.0)).0
         };
         assert_eq!(after(1.1 * felt), 1);
         assert_eq!(after(1.5 * felt), 0);

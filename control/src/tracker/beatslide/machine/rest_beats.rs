@@ -59,18 +59,7 @@ impl BeatSlide {
             if from < since {
                 break;
             }
-            let window = self.history.between(from, to);
-            let fix = analyse_window(
-                &window,
-                pulse.clock.phase(),
-                &pulse.template,
-                self.spatial,
-                MAX_DELAY_FRACTION,
-                self.geometry.noise_sd_n,
-                &self.geometry,
-                &mut self.noise,
-            );
-            if let Ok(fix) = fix
+            if let Ok(fix) = self.analyse_span(from, to)
                 && !fix.kernel.at_edge
                 && fix.kernel.offset_se_m.is_finite()
             {

@@ -183,10 +183,15 @@ impl BeatSlide {
     }
 
     pub(super) fn analyse(&mut self, from_s: f64) -> Result<BeatFix, BeatMiss> {
+        self.analyse_span(from_s, f64::INFINITY)
+    }
+
+    /// One fix over the frames from `from_s` up to (not including) `to_s`.
+    pub(super) fn analyse_span(&mut self, from_s: f64, to_s: f64) -> Result<BeatFix, BeatMiss> {
         let Some(pulse) = self.pulse else {
             return Err(BeatMiss::Empty);
         };
-        let window = self.history.since(from_s);
+        let window = self.history.between(from_s, to_s);
         analyse_window(
             &window,
             pulse.clock.phase(),
