@@ -51,8 +51,10 @@ impl BeatSlide {
             return RestBeats::Still;
         };
         let period = pulse.clock.period_s();
-        // Newest first; a beat that gave no fix on the array is left out.
+        // Newest first, with each one's place `(z, se)`; a beat that gave no fix on the
+        // array is left out.
         let mut fixes = [None; MAX_BEATS];
+        let mut places = [(0.0, 0.0); MAX_BEATS];
         let mut n = 0;
         for k in 0..MAX_BEATS {
             let (from, to) = (t - (k + 1) as f64 * period, t - k as f64 * period + 1e-9);
@@ -64,12 +66,9 @@ impl BeatSlide {
                 && fix.kernel.offset_se_m.is_finite()
             {
                 fixes[n] = Some(fix);
+                places[n] = (fix.point().z_m, fix.kernel.offset_se_m.hypot(BEAT_FLOOR_M));
                 n += 1;
             }
-        }
-        let mut places = [(0.0, 0.0); MAX_BEATS];
-        for (place, fix) in places.iter_mut().zip(fixes.iter().flatten()) {
-            *place = (fix.point().z_m, fix.kernel.offset_se_m.hypot(BEAT_FLOOR_M));
         }
         if !moved(&places[..n]) {
             return RestBeats::Still;
@@ -84,9 +83,7 @@ impl BeatSlide {
         let median = last[1];
         RestBeats::Moved(self.check_amplitude(&median.kernel).ok().map(|()| median))
     }
-}
 
-impl BeatSlide {
     /// A point found at rest over a window, `located` (its fix `window_fit`, placed from
     /// `window_raw`), as the beats say it should be reported: unchanged when still, moved
     /// to the reported beat's place and time (the window's lag and placement kept, its fix's
