@@ -154,6 +154,13 @@ pub fn glrt_threshold(
     Ok(maxima[k])
 }
 
+/// Chi-square quantile (Wilson-Hilferty: within a few per cent from 2 degrees of freedom up,
+/// which is all a threshold at 1e-2 to 1e-4 needs).
+pub fn chi2_quantile(p: f64, dof: f64) -> f64 {
+    let a = 2.0 / (9.0 * dof);
+    dof * (1.0 - a + normal_quantile(p) * a.sqrt()).powi(3)
+}
+
 /// Standard normal quantile (Acklam's rational approximation, relative error 1.2e-9):
 /// a few lines here rather than a statistics crate for one function.
 pub fn normal_quantile(p: f64) -> f64 {

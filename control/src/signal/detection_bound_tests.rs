@@ -99,6 +99,24 @@ fn the_normal_quantile_matches_tabulated_values() {
 }
 
 #[test]
+fn the_chi_square_quantile_matches_tabulated_values() {
+    // 99.9 % points: 13.816 (2), 16.266 (3), 22.458 (6), 24.322 (7); 99 %: 16.812 (6).
+    for (p, dof, q) in [
+        (0.999, 2.0, 13.816),
+        (0.999, 3.0, 16.266),
+        (0.999, 6.0, 22.458),
+        (0.999, 7.0, 24.322),
+        (0.99, 6.0, 16.812),
+    ] {
+        let got = chi2_quantile(p, dof);
+        assert!(
+            (got - q).abs() < 0.05 * q,
+            "{p}, dof {dof}: {got} against {q}"
+        );
+    }
+}
+
+#[test]
 fn the_known_position_bound_agrees_with_its_monte_carlo() {
     let tab = table();
     let at = 18; // under the array's middle

@@ -30,6 +30,7 @@ use crate::classify::{ClassifyParams, Kind, Window as ClassifyWindow};
 use crate::frames::SurfacePoint;
 use crate::sensor::ArrayGeometry;
 use crate::signal::beat_clock::{BeatClock, BeatClockSettings};
+use crate::signal::detection_bound::chi2_quantile;
 use crate::signal::harmonic::{Waveform, waveform_value};
 use crate::signal::kernel_fit::{KernelFit, KernelFitError, fit_kernel};
 use crate::signal::noise_level::NoiseLevel;
@@ -242,6 +243,12 @@ pub struct BeatSlide {
 /// at 1.3 % of the points (docs/BENCHMARKS.md).
 const REPORT_FRACTION: f64 = 0.7;
 
+/// Tissue motion SDs a reported point's centre must lie inside the outer elements' centres.
+const EDGE_MOTION_SDS: f64 = 1.0;
+
+/// False alarm of the one-kernel test on a reported fix ([`BeatSlide::fits_one_artery`]).
+const KERNEL_FIT_FALSE_ALARM: f64 = 1e-3;
+
 /// Most seed points kept.
 const MAX_SEEDS: usize = 16;
 /// Largest tissue motion SD added to a fix's: with the gate at 4 SD, more would let in a
@@ -340,14 +347,18 @@ impl BeatSlide {
     /// beat) or from its edge. Such a fix steers, unreported. (A mark's point is its result and is
     /// always reported, with its SD.)
     fn report(&mut self, located: LocatedPoint) {
-        let last = (crate::types::ELEMENTS - 1) as f64;
+        // Under moving tissue the artery moves by about the motion's SD within a window: a
+        // centre that close to the outer elements may have been beyond them for part of it,
+        // felt by one flank.
+        let margin = EDGE_MOTION_SDS * self.tissue.sd_m() / self.geometry.pitch_m;
+        let last = (crate::types::ELEMENTS - 1) as f64 - margin;
         // Against the usual amplitude or the last fix's, the lower: a pulse fading along
         // the artery (an occlusion) fades fix by fix and stays reported; a beat felt
         // smeared is a dip below both.
         let usual_n = self.pulse.map_or(0.0, |p| p.amplitude_n);
         let reference_n = usual_n.min(self.previous_amplitude_n);
         self.previous_amplitude_n = located.amplitude_n;
-        if (0.0..=last).contains(&located.element)
+        if (margin..=last).contains(&located.element)
             && located.amplitude_n >= REPORT_FRACTION * reference_n
         {
             self.emit(TrackerEvent::Located(located));
@@ -558,6 +569,19 @@ impl BeatSlide {
     fn smeared(&self, window_s: f64) -> bool {
         let period = self.pulse.map_or(1.0, |p| p.clock.period_s());
         self.tissue.sd_m() > SMEAR_SD_M && window_s > 1.5 * period
+    }
+
+    /// Do a fix's amplitudes look like one artery's kernel? Over a beat in which the artery
+    /// swept along the array (tissue moving with breathing, the course crossing the
+    /// elements' line at a shallow angle) the amplitudes are a smear that no one kernel
+    /// fits, and its fitted place was 2-4 mm from where the artery lay at any moment. The
+    /// fit's chi-square against its degrees of freedom (the trusted elements less the
+    /// kernel's four parameters), at a false alarm of `KERNEL_FIT_FALSE_ALARM` on a still
+    /// artery: such a fix steers the track but is not reported.
+    fn fits_one_artery(&self, fit: &KernelFit) -> bool {
+        let trusted: f64 = self.geometry.skip_elements.weights().iter().sum();
+        let dof = trusted - 4.0;
+        dof < 1.0 || fit.chi2 <= chi2_quantile(1.0 - KERNEL_FIT_FALSE_ALARM, dof)
     }
 
     /// Where the arm's load puts a point that the tracker placed at `point` from a window
@@ -1432,6 +1456,46 @@ mod tests {
         assert_eq!(last_below, run(4.5).1, "but it steers the track as before");
         assert_eq!(last_above, run(4.5).1);
         assert_eq!(run(f64::NAN).0, 0);
+    }
+
+    #[test]
+    fn a_sliding_fix_no_one_kernel_fits_steers_but_is_not_reported() {
+        let run = |chi2: f64| {
+            let f = fix(0.0);
+            let mut smeared = f;
+            smeared.kernel.chi2 = chi2;
+            reported_after(with_pulse(0.08), &f, &smeared)
+        };
+        // Ten trusted elements, four parameters: 22.46 is chi-square(6)'s 99.9 % point.
+        let (fits, last) = run(21.5);
+        assert_eq!(fits, 1);
+        let (smeared, last_smeared) = run(23.5);
+        assert_eq!(smeared, 0, "a smear no one kernel fits is not reported");
+        assert_eq!(last_smeared, last, "but it steers the track as before");
+        assert_eq!(run(f64::NAN).0, 0);
+    }
+
+    #[test]
+    fn under_moving_tissue_a_fix_near_the_arrays_end_is_not_reported() {
+        let run = |element: f64, motion_m: f64| {
+            let mut t = with_pulse(0.08);
+            for k in 0..9 {
+                t.tissue
+                    .push(if k % 2 == 0 { motion_m } else { -motion_m }, 0.0);
+            }
+            let f = fix(0.0);
+            let mut near_end = f;
+            near_end.kernel.element = element;
+            reported_after(t, &f, &near_end).0
+        };
+        // Still tissue: up to the outer elements' centres.
+        assert_eq!(run(0.2, 0.0), 1);
+        assert_eq!(run(8.8, 0.0), 1);
+        // Moving 1 mm (SD), half a pitch: the centre must lie half an element inside.
+        assert_eq!(run(0.45, 0.001), 0);
+        assert_eq!(run(8.55, 0.001), 0);
+        assert_eq!(run(0.55, 0.001), 1);
+        assert_eq!(run(8.45, 0.001), 1);
     }
 
     #[test]

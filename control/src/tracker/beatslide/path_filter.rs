@@ -74,6 +74,8 @@ pub struct PathFilter {
     x: Vector4<f64>,
     p: Matrix4<f64>,
     settings: PathFilterSettings,
+    /// Fixes move only the path, not the lag ([`Self::hold_lag`]).
+    lag_held: bool,
 }
 
 /// A fix: where it was reported (believed coordinates) and the lag's direction then.
@@ -149,6 +151,7 @@ impl PathFilter {
                 settings.lag_prior_sd_m.powi(2),
             )),
             settings,
+            lag_held: false,
         };
         for o in observations {
             let (s, z) = f.to_local(o.point);
@@ -166,6 +169,12 @@ impl PathFilter {
     }
 
     /// The sensor's estimated lag behind the belief, m, and its SD.
+    /// Hold the lag's estimate: fixes then move only the path (tissue moving under the
+    /// sensor would otherwise be taken for lag).
+    pub fn hold_lag(&mut self, held: bool) {
+        self.lag_held = held;
+    }
+
     pub fn lag_m(&self) -> f64 {
         self.x[3]
     }
@@ -264,8 +273,10 @@ impl PathFilter {
         // has changed (an S-curve's inflection): widen the path's uncertainty so that the
         // fix counts for more, in proportion.
         let nis = innovation * innovation / var;
-        if nis > NIS_INFLATE {
-            moved.inflate((nis / NIS_INFLATE).sqrt().min(MAX_INFLATION));
+        if nis > NIS_INFLATE || self.lag_held {
+            if nis > NIS_INFLATE {
+                moved.inflate((nis / NIS_INFLATE).sqrt().min(MAX_INFLATION));
+            }
             // The surprise is the path's, not the lag's: the lag is the rig's, and changes
             // slowly. Left free, it takes up part of every bend and is then subtracted from
             // every later fix (7 mm against a true 3 mm after one corner in the bends
@@ -508,27 +519,35 @@ mod tests {
         assert!(f.curvature_per_m() < -0.5 / r, "{}", f.curvature_per_m());
     }
 
+    /// Settings believing a 2 mm lag, ±2 mm, free to change.
+    fn lag_settings() -> PathFilterSettings {
+        PathFilterSettings {
+            lag_prior_m: 0.002,
+            lag_prior_sd_m: 0.002,
+            lag_walk: 0.001,
+            ..settings()
+        }
+    }
+
+    /// Fix `k` on a straight artery along x, the sensor trailing the belief by 4 mm along a
+    /// motion swinging ±20° about the artery.
+    fn swinging(k: usize) -> Observation {
+        let psi = if k.is_multiple_of(2) { 0.35f64 } else { -0.35 };
+        let u = [psi.cos(), psi.sin()];
+        Observation {
+            point: SurfacePoint::new(0.01 * k as f64 + 0.004 * u[0], 0.004 * u[1]),
+            sd_m: 0.0002,
+            lag_dir: u,
+        }
+    }
+
     #[test]
     fn learns_the_sensor_lag_from_motion_across_the_path() {
         // A straight artery along x; the sensor trails the belief by 4 mm along a motion
         // that swings ±20° about the artery, so each reported point is off by the lag's
         // lateral part. The filter starts believing 2 mm.
         let lag = 0.004;
-        let s = PathFilterSettings {
-            lag_prior_m: 0.002,
-            lag_prior_sd_m: 0.002,
-            lag_walk: 0.001,
-            ..settings()
-        };
-        let observe = |k: usize| {
-            let psi = if k.is_multiple_of(2) { 0.35f64 } else { -0.35 };
-            let u = [psi.cos(), psi.sin()];
-            Observation {
-                point: SurfacePoint::new(0.01 * k as f64 + lag * u[0], lag * u[1]),
-                sd_m: 0.0002,
-                lag_dir: u,
-            }
-        };
+        let (s, observe) = (lag_settings(), swinging);
         let mut f =
             PathFilter::from_observations(&[observe(0), observe(1)], 0.0, s).expect("two points");
         for k in 2..30 {
@@ -543,6 +562,28 @@ mod tests {
         assert!(f.curvature_per_m().abs() < 1.0);
         // Without the lag model the same points would zig-zag by ±1.4 mm.
         assert!(observe(30).point.z_m.abs() > 1.3e-3);
+    }
+
+    #[test]
+    fn a_held_lag_is_not_moved_by_the_fixes() {
+        // The fixes of the test above, which teach a 4 mm lag to a filter believing 2 mm:
+        // with the lag held (tissue moving under the sensor), it stays at 2 mm while the
+        // path still follows the fixes.
+        let (s, observe) = (lag_settings(), swinging);
+        let mut f =
+            PathFilter::from_observations(&[observe(0), observe(1)], 0.0, s).expect("two points");
+        let start = f.lag_m();
+        f.hold_lag(true);
+        for k in 2..30 {
+            f.update(&observe(k)).expect("on the path");
+        }
+        assert_eq!(f.lag_m(), start);
+        assert!((f.origin().x_m - 0.29).abs() < 0.01, "{:?}", f.origin());
+        f.hold_lag(false);
+        for k in 30..60 {
+            f.update(&observe(k)).expect("on the path");
+        }
+        assert!((f.lag_m() - 0.004).abs() < 0.4e-3, "lag {}", f.lag_m());
     }
 
     #[test]

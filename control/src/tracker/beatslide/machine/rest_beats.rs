@@ -21,7 +21,7 @@
 //! three or four beats (breathing's seed points 0.39 -> 1.07 mm RMS).
 
 use super::*;
-use crate::signal::detection_bound::normal_quantile;
+use crate::signal::detection_bound::chi2_quantile;
 
 /// Beats localized at most (the window's last ones).
 const MAX_BEATS: usize = 8;
@@ -135,25 +135,9 @@ fn moved(places: &[(f64, f64)]) -> bool {
     chi2 > chi2_quantile(1.0 - MOTION_FALSE_ALARM, (places.len() - 1) as f64)
 }
 
-/// Chi-square quantile (Wilson-Hilferty: within a few per cent from 2 degrees of freedom up,
-/// which is all a threshold at 1e-3 needs).
-fn chi2_quantile(p: f64, dof: f64) -> f64 {
-    let a = 2.0 / (9.0 * dof);
-    dof * (1.0 - a + normal_quantile(p) * a.sqrt()).powi(3)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_chi_square_quantile_matches_tabulated_values() {
-        // 99.9 % points: 13.816 (2), 16.266 (3), 24.322 (7).
-        for (dof, q) in [(2.0, 13.816), (3.0, 16.266), (7.0, 24.322)] {
-            let got = chi2_quantile(0.999, dof);
-            assert!((got - q).abs() < 0.05 * q, "dof {dof}: {got} against {q}");
-        }
-    }
 
     #[test]
     fn places_within_their_noise_are_still_and_a_swing_is_motion() {

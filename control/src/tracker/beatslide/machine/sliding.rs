@@ -243,7 +243,9 @@ impl BeatSlide {
             sd_m: own_sd.hypot(self.tissue.sd_m()),
             lag_dir: fix.lag_dir,
         };
+        let moving = self.tissue.sd_m() > SMEAR_SD_M;
         let filter = self.filter.as_mut().ok_or(Miss::NoModel)?;
+        filter.hold_lag(moving);
         let mut updated = *filter;
         let surprise = updated.update(&observation)?;
         let nis = surprise.nis();
@@ -285,7 +287,7 @@ impl BeatSlide {
         let disputed = self
             .load_disagrees(fix.point(), point, fix.felt_offset)
             .is_some();
-        if !self.smeared(self.window_len_s()) && !disputed {
+        if !self.smeared(self.window_len_s()) && !disputed && self.fits_one_artery(&fix.kernel) {
             self.report(located);
         }
         self.spatial = SpatialPrior {
