@@ -568,7 +568,12 @@ impl BeatSlide {
     /// is seen to move, such a fix steers the track but is not reported as a point.
     fn smeared(&self, window_s: f64) -> bool {
         let period = self.pulse.map_or(1.0, |p| p.clock.period_s());
-        self.tissue.sd_m() > SMEAR_SD_M && window_s > 1.5 * period
+        self.tissue_moving() && window_s > 1.5 * period
+    }
+
+    /// Is the tissue seen to move under the sensor (beyond `SMEAR_SD_M`)?
+    fn tissue_moving(&self) -> bool {
+        self.tissue.sd_m() > SMEAR_SD_M
     }
 
     /// Do a fix's amplitudes look like one artery's kernel? Over a beat in which the artery

@@ -243,7 +243,7 @@ impl BeatSlide {
             sd_m: own_sd.hypot(self.tissue.sd_m()),
             lag_dir: fix.lag_dir,
         };
-        let moving = self.tissue.sd_m() > SMEAR_SD_M;
+        let moving = self.tissue_moving();
         let filter = self.filter.as_mut().ok_or(Miss::NoModel)?;
         filter.hold_lag(moving);
         let mut updated = *filter;
