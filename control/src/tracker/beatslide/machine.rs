@@ -340,13 +340,19 @@ impl BeatSlide {
         self.last_miss
     }
 
-    /// Report a point located while tracking, if the artery's centre lay under the array
-    /// and its pulse was near this artery's usual amplitude and the last fix's: beyond the
-    /// outer elements' centres the array felt only a flank and the place is extrapolated
-    /// from it, and a pulse well below both was felt smeared (the artery moving under the
-    /// beat) or from its edge. Such a fix steers, unreported. (A mark's point is its result and is
-    /// always reported, with its SD.)
-    fn report(&mut self, located: LocatedPoint) {
+    /// Report a point located while tracking (its fit `fit`), if the array felt it as one
+    /// artery at this artery's strength: its amplitudes fit one kernel
+    /// ([`Self::fits_one_artery`]); its centre lay under the array, between the outer
+    /// elements' centres (beyond them the array felt only a flank and the place is
+    /// extrapolated), and under moving tissue a motion SD inside them; and its pulse was
+    /// near this artery's usual amplitude and the last fix's (a pulse well below both was
+    /// felt smeared, the artery moving under the beat, or from its edge). Such a fix
+    /// steers, unreported. (A mark's point is its result and is always reported, with its
+    /// SD.)
+    fn report(&mut self, located: LocatedPoint, fit: &KernelFit) {
+        if !self.fits_one_artery(fit) {
+            return;
+        }
         // Under moving tissue the artery moves by about the motion's SD within a window: a
         // centre that close to the outer elements may have been beyond them for part of it,
         // felt by one flank.
@@ -1405,8 +1411,6 @@ mod tests {
         );
     }
 
-    /// While sliding, a fix whose place the load disputes steers the track (the path
-    /// grows, the last fix moves) but is not reported; an undisputed one is reported.
     /// `accepted` taken on the path, then `after` (the same fix, or one changed after the
     /// gate) handed on: the points reported, and where the track then is.
     fn reported_after(
@@ -1422,6 +1426,8 @@ mod tests {
         (located, t.last_fix)
     }
 
+    /// While sliding, a fix whose place the load disputes steers the track (the path
+    /// grows, the last fix moves) but is not reported; an undisputed one is reported.
     #[test]
     fn a_sliding_fix_the_load_disputes_steers_but_is_not_reported() {
         let run = |felt: Option<[f64; 2]>| {

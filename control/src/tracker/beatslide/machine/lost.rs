@@ -162,10 +162,9 @@ impl BeatSlide {
         let located = self.located(0.5 * (since + t), reported, at, &fit, false, sd_m);
         self.record(point);
         if !self.smeared(t - since)
-            && self.fits_one_artery(&fit)
             && let Some(located) = self.at_rest_reported(since, t, located, &fit, observation.point)
         {
-            self.report(located);
+            self.report(located, &fit);
         }
         if self.length_reached() {
             self.finish(EndReason::LengthReached, t);

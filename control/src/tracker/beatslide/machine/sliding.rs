@@ -287,8 +287,8 @@ impl BeatSlide {
         let disputed = self
             .load_disagrees(fix.point(), point, fix.felt_offset)
             .is_some();
-        if !self.smeared(self.window_len_s()) && !disputed && self.fits_one_artery(&fix.kernel) {
-            self.report(located);
+        if !self.smeared(self.window_len_s()) && !disputed {
+            self.report(located, &fix.kernel);
         }
         self.spatial = SpatialPrior {
             element: fix.kernel.element,
