@@ -15,6 +15,7 @@
 
 mod lost;
 mod rest_beats;
+mod rest_search;
 mod seating;
 mod sliding;
 
@@ -381,65 +382,6 @@ impl BeatSlide {
     fn finish(&mut self, reason: EndReason, t_s: f64) {
         self.state = State::Finished(reason);
         self.emit(TrackerEvent::Finished { t_s, reason });
-    }
-
-    fn search_settings(&self) -> PulseSearchSettings {
-        let (lo, hi) = match self.pulse {
-            Some(p) => {
-                let period = p.clock.period_s();
-                (
-                    (period * (1.0 - KNOWN_PERIOD_RANGE)).max(self.params.min_period_s),
-                    (period * (1.0 + KNOWN_PERIOD_RANGE)).min(self.params.max_period_s),
-                )
-            }
-            None => (self.params.min_period_s, self.params.max_period_s),
-        };
-        PulseSearchSettings {
-            min_period_s: lo,
-            max_period_s: hi,
-            threshold: self.params.detection_threshold,
-            decimation: SEARCH_DECIMATION,
-            min_cycles: MIN_CYCLES,
-            coherent_s: self.params.coherent_s,
-            plausible_min_period_s: self.params.min_period_s,
-            plausible_max_period_s: self.params.max_period_s,
-        }
-    }
-
-    /// Search the frames since `since_s` at rest; on success, the kernel fit too.
-    fn search_at_rest(
-        &mut self,
-        since_s: f64,
-    ) -> Result<(PulseFound, KernelFit, SurfacePoint), Miss> {
-        let settings = self.search_settings();
-        let window = self.history.since(since_s);
-        let sensor = window.mean_sensor().ok_or(Miss::NoPosition)?;
-        let sigma = self
-            .noise
-            .estimate(window.frames())
-            .unwrap_or(self.geometry.noise_sd_n)
-            .max(self.geometry.noise_sd_n);
-        let found = self.search.search(window.frames(), sigma, &settings)?;
-        // Which sign is the pulse? The kernel with its small negative lobes fits one far
-        // better than the other (in time a square wave and its inverse differ only by half
-        // a period).
-        let se = found.amplitudes.se_per_sigma * sigma;
-        let flipped = found.flipped();
-        let (found, mut fit) = match (
-            fit_kernel(&found.amplitudes.amplitude_n, se, &self.geometry),
-            fit_kernel(&flipped.amplitudes.amplitude_n, se, &self.geometry),
-        ) {
-            (Ok(a), Ok(b)) if b.chi2 < a.chi2 => (flipped, b),
-            (Ok(a), _) => (found, a),
-            (Err(_), Ok(b)) => (flipped, b),
-            (Err(e), Err(_)) => return Err(e.into()),
-        };
-        if fit.at_edge || !fit.offset_se_m.is_finite() {
-            // At the edge the position is only a bound: keep it, with an uncertainty of
-            // two pitches.
-            fit.offset_se_m = 2.0 * self.geometry.pitch_m;
-        }
-        Ok((found, fit, sensor))
     }
 
     /// Take the pulse's rate, phase and waveform from a search at rest.

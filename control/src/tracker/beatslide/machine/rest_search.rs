@@ -1,0 +1,167 @@
+//! The search at rest: the pulse's rate, waveform and spatial pattern from a window with the
+//! sensor still, and the kernel fit that places it.
+//!
+//! Under breathing the tissue carries the artery across the still array, which modulates
+//! each element's pulse: the heart's line at `f_h` gets sidebands at `f_h ± f_b`, and the
+//! artery's mean load sweeping the elements adds the breathing's own harmonics. Over a 4 s
+//! window these can pass for a pulse at another rate (a fundamental near `f_h − f_b` with
+//! its second harmonic on `f_h + f_b`), as strong as the heart's own, and the largest
+//! statistic picked it: on the breathing family's reporting seeds three trials learned a
+//! period of 1.5 s for a 1.0 s heart, and their seed points were 6-7 mm off. The two differ
+//! in space: the heart's line has the artery's kernel as its pattern, a sideband the
+//! kernel's derivative (two lobes of opposite sign), which no one kernel fits. So a pulse
+//! whose pattern fails the one-kernel test ([`BeatSlide::fits_one_artery`]) is searched
+//! again outside its own band; a pulse found there (not on the band's edge, which is the
+//! refused line's flank) that one kernel fits is taken instead, or, when none does, the one
+//! closest to a kernel for its strength. A pulse whose pattern passes is never searched again:
+//! on still tissue nothing changes.
+
+use super::*;
+
+/// Half the width of the band left out around a refused pulse's rate, in cycles over the
+/// window: the statistic's peak is about two cycles over the window wide at its base.
+const REFUSED_BAND_CYCLES: f64 = 1.0;
+/// How strong, against the refused pulse's statistic, a pulse elsewhere must be to replace
+/// it: the heart's line was 0.9-1.0 of its sidebands' in the failures traced (breathing's
+/// reporting seeds), while noise elsewhere, which any kernel fits, is far weaker.
+const RIVAL_STRENGTH: f64 = 0.5;
+/// The search's frequency step, in cycles over the window (`pulse_search`'s grid).
+const SEARCH_GRID_CYCLES: f64 = 0.1;
+
+impl BeatSlide {
+    pub(super) fn search_settings(&self) -> PulseSearchSettings {
+        let (lo, hi) = match self.pulse {
+            Some(p) => {
+                let period = p.clock.period_s();
+                (
+                    (period * (1.0 - KNOWN_PERIOD_RANGE)).max(self.params.min_period_s),
+                    (period * (1.0 + KNOWN_PERIOD_RANGE)).min(self.params.max_period_s),
+                )
+            }
+            None => (self.params.min_period_s, self.params.max_period_s),
+        };
+        PulseSearchSettings {
+            min_period_s: lo,
+            max_period_s: hi,
+            threshold: self.params.detection_threshold,
+            decimation: SEARCH_DECIMATION,
+            min_cycles: MIN_CYCLES,
+            coherent_s: self.params.coherent_s,
+            plausible_min_period_s: self.params.min_period_s,
+            plausible_max_period_s: self.params.max_period_s,
+        }
+    }
+
+    /// Search the frames since `since_s` at rest; on success, the kernel fit too.
+    pub(super) fn search_at_rest(
+        &mut self,
+        since_s: f64,
+    ) -> Result<(PulseFound, KernelFit, SurfacePoint), Miss> {
+        let settings = self.search_settings();
+        let window = self.history.since(since_s);
+        let sensor = window.mean_sensor().ok_or(Miss::NoPosition)?;
+        let sigma = self
+            .noise
+            .estimate(window.frames())
+            .unwrap_or(self.geometry.noise_sd_n)
+            .max(self.geometry.noise_sd_n);
+        let span_s = match (window.frames().next(), window.frames().last()) {
+            (Some(a), Some(b)) => b.t_s - a.t_s,
+            _ => 0.0,
+        };
+        let first = placed_pulse(&mut self.search, &window, sigma, &settings, &self.geometry)?;
+        if self.fits_one_artery(&first.1) || span_s <= 0.0 {
+            return Ok((first.0, first.1, sensor));
+        }
+        // Not one artery's pattern: look outside its band for one that fits better.
+        let f = 1.0 / first.0.phase.period_s;
+        let band = REFUSED_BAND_CYCLES / span_s;
+        let grid = SEARCH_GRID_CYCLES / span_s;
+        // Slower than the band (none when the band reaches zero), and faster.
+        let below = (f > band).then(|| PulseSearchSettings {
+            min_period_s: settings.min_period_s.max(1.0 / (f - band)),
+            ..settings
+        });
+        let above = Some(PulseSearchSettings {
+            max_period_s: settings.max_period_s.min(1.0 / (f + band)),
+            ..settings
+        });
+        let first_statistic = first.0.statistic;
+        let mut best = first;
+        for range in [below, above].into_iter().flatten() {
+            if range.min_period_s >= range.max_period_s {
+                continue;
+            }
+            let Ok(other) = placed_pulse(&mut self.search, &window, sigma, &range, &self.geometry)
+            else {
+                continue;
+            };
+            // A peak at the band's edge is the refused line's own flank.
+            if (1.0 / other.0.phase.period_s - f).abs() < band + grid {
+                continue;
+            }
+            // The heart's line is about as strong as the sidebands it made: a weak peak
+            // elsewhere (noise, which any kernel fits) is not it.
+            if other.0.statistic < RIVAL_STRENGTH * first_statistic {
+                continue;
+            }
+            if self.better_pulse(&other, &best) {
+                best = other;
+            }
+        }
+        let (found, fit) = best;
+        Ok((found, fit, sensor))
+    }
+
+    /// Is `a` a better reading of the window than `b`: one artery's pattern against none,
+    /// the stronger of two that are, the closer to one kernel (its misfit per unit of
+    /// signal) of two that are not.
+    fn better_pulse(&self, a: &(PulseFound, KernelFit), b: &(PulseFound, KernelFit)) -> bool {
+        // The kernel's chi-square per unit of the pattern's own energy (its squared SNR
+        // over the trusted elements).
+        let weights = self.geometry.skip_elements.weights();
+        let misfit = |(found, fit): &(PulseFound, KernelFit)| {
+            let se = found.amplitudes.se_per_sigma * found.noise_sd_n;
+            let energy: f64 = (found.amplitudes.amplitude_n.iter().zip(&weights))
+                .map(|(a, w)| w * (a / se).powi(2))
+                .sum();
+            fit.chi2 / energy.max(f64::MIN_POSITIVE)
+        };
+        match (self.fits_one_artery(&a.1), self.fits_one_artery(&b.1)) {
+            (true, false) => true,
+            (false, true) => false,
+            (true, true) => a.0.statistic > b.0.statistic,
+            (false, false) => misfit(a) < misfit(b),
+        }
+    }
+}
+
+/// The strongest pulse in `settings`' range and its kernel fit, with the pulse's sign the
+/// one the kernel fits (in time a square wave and its inverse differ only by half a
+/// period; the kernel with its small negative lobes fits one far better than the other).
+fn placed_pulse(
+    search: &mut PulseSearch,
+    window: &super::super::history::Window<'_>,
+    sigma: f64,
+    settings: &PulseSearchSettings,
+    geometry: &ArrayGeometry,
+) -> Result<(PulseFound, KernelFit), Miss> {
+    let found = search.search(window.frames(), sigma, settings)?;
+    let se = found.amplitudes.se_per_sigma * sigma;
+    let flipped = found.flipped();
+    let (found, mut fit) = match (
+        fit_kernel(&found.amplitudes.amplitude_n, se, geometry),
+        fit_kernel(&flipped.amplitudes.amplitude_n, se, geometry),
+    ) {
+        (Ok(a), Ok(b)) if b.chi2 < a.chi2 => (flipped, b),
+        (Ok(a), _) => (found, a),
+        (Err(_), Ok(b)) => (flipped, b),
+        (Err(e), Err(_)) => return Err(e.into()),
+    };
+    if fit.at_edge || !fit.offset_se_m.is_finite() {
+        // At the edge the position is only a bound: keep it, with an uncertainty of two
+        // pitches.
+        fit.offset_se_m = 2.0 * geometry.pitch_m;
+    }
+    Ok((found, fit))
+}
