@@ -56,19 +56,28 @@ impl BeatSlide {
         let mut fixes = [None; MAX_BEATS];
         let mut places = [(0.0, 0.0); MAX_BEATS];
         let mut n = 0;
+        let mut off_array = false;
+        let last = (crate::types::ELEMENTS - 1) as f64;
         for k in 0..MAX_BEATS {
             let (from, to) = (t - (k + 1) as f64 * period, t - k as f64 * period + 1e-9);
             if from < since {
                 break;
             }
-            if let Ok(fix) = self.analyse_span(from, to)
-                && !fix.kernel.at_edge
-                && fix.kernel.offset_se_m.is_finite()
-            {
+            let Ok(fix) = self.analyse_span(from, to) else {
+                continue;
+            };
+            if fix.kernel.at_edge || !(0.0..=last).contains(&fix.kernel.element) {
+                off_array = true;
+            } else if fix.kernel.offset_se_m.is_finite() {
                 fixes[n] = Some(fix);
                 places[n] = (fix.point().z_m, fix.kernel.offset_se_m.hypot(BEAT_FLOOR_M));
                 n += 1;
             }
+        }
+        // A beat that put the artery beyond the outer elements: it was not on the array
+        // for the whole window, and no beat's place can be trusted near that end.
+        if off_array {
+            return RestBeats::Moved(None);
         }
         if !moved(&places[..n]) {
             return RestBeats::Still;
@@ -138,6 +147,97 @@ fn moved(places: &[(f64, f64)]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::signal::harmonic::PulsePhase;
+    use crate::signal::kernel_fit::element_kernel;
+    use crate::tracker::beatslide::beat_fix::SpatialPrior;
+    use crate::types::{ELEMENTS, TactileFrame};
+
+    /// A still tracker that has learned a 1 Hz pulse (a pure cosine) of 0.05 N with the
+    /// window's place at the median of `centres` (as the window's fit would put it), and has
+    /// felt one beat per entry of `centres` at rest, the artery under that (fractional)
+    /// element in that beat; a little deterministic noise on every element.
+    fn at_rest(centres: &[f64]) -> BeatSlide {
+        let geometry = ArrayGeometry::default();
+        let mut t = BeatSlide::new(BeatSlideParams::default(), geometry).expect("defaults");
+        let mut template = Waveform::zeros();
+        template[0] = 1.0;
+        t.pulse = Some(Pulse {
+            clock: BeatClock::new(
+                PulsePhase {
+                    t_ref_s: 0.0,
+                    period_s: 1.0,
+                },
+                BeatClockSettings::default(),
+            ),
+            template,
+            template_pp: peak_to_peak(&template),
+            snr_per_beat: 10.0,
+            late_rms_s: 0.05,
+            amplitude_n: 0.05,
+            reported_period_s: 1.0,
+        });
+        let mut sorted = centres.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        t.spatial = SpatialPrior {
+            element: sorted[sorted.len() / 2].clamp(0.0, (ELEMENTS - 1) as f64),
+            width_m: 0.005,
+        };
+        let (pitch, fs) = (geometry.pitch_m, geometry.sample_rate_hz);
+        let mut state = 12345u64;
+        let mut noise = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.004
+        };
+        let per_beat = fs.round() as usize;
+        for (b, &c) in centres.iter().enumerate() {
+            for i in 0..per_beat {
+                let seq = (b * per_beat + i) as u64;
+                let t_s = seq as f64 / fs;
+                let pulse = 0.05 * (std::f64::consts::TAU * t_s).cos();
+                let force_n: [f64; ELEMENTS] = std::array::from_fn(|e| {
+                    0.4 + pulse * element_kernel((e as f64 - c) * pitch, 0.005, pitch) + noise()
+                });
+                let frame = TactileFrame { t_s, seq, force_n };
+                t.history
+                    .push(frame, SurfacePoint::new(0.0, 0.0), [0.0, 0.0], None);
+            }
+        }
+        t
+    }
+
+    fn beats_say(centres: &[f64]) -> RestBeats {
+        let mut t = at_rest(centres);
+        let end = centres.len() as f64 - 0.005;
+        t.rest_beats(0.0, end)
+    }
+
+    #[test]
+    fn a_beat_beyond_the_arrays_end_leaves_the_window_no_place() {
+        // Held still on the array, and still near its end: the window's place stands.
+        assert_eq!(beats_say(&[4.2; 6]), RestBeats::Still);
+        assert_eq!(beats_say(&[8.6; 6]), RestBeats::Still);
+        // Swept along the array: the median of the last three beats.
+        match beats_say(&[3.0, 4.0, 5.0, 6.0, 7.0, 8.0]) {
+            RestBeats::Moved(Some(fix)) => assert!(
+                (fix.kernel.element - 7.0).abs() < 0.3,
+                "the middle of the last three beats, got element {:.2}",
+                fix.kernel.element
+            ),
+            other => panic!("a sweep is motion: {other:?}"),
+        }
+        // Near the end, with one beat beyond it: the beats on the array are flanks of an
+        // artery that was not held there.
+        assert_eq!(
+            beats_say(&[8.6, 8.7, 11.5, 8.8, 8.7, 8.6]),
+            RestBeats::Moved(None)
+        );
+        assert_eq!(
+            beats_say(&[0.4, 0.3, -2.5, 0.2, 0.3, 0.4]),
+            RestBeats::Moved(None)
+        );
+    }
 
     #[test]
     fn places_within_their_noise_are_still_and_a_swing_is_motion() {
