@@ -243,6 +243,12 @@ pub struct BeatSlide {
 /// usual still steer). Chosen on the tuning seeds: 19 of 32 points more than 2 mm off left,
 /// at 1.3 % of the points (docs/BENCHMARKS.md).
 const REPORT_FRACTION: f64 = 0.7;
+/// Within this many pitches of an outer element's centre a reported fix needs
+/// `FLANK_FRACTION` of the usual amplitude (chosen on the tuning seeds: 0.8 within one pitch
+/// left out 0.3 % of the points and 2 of 8 more than 2 mm off; 0.85-0.9, or 1.5 pitches,
+/// left out up to 1.6 % for no more).
+const FLANK_ELEMENTS: f64 = 1.0;
+const FLANK_FRACTION: f64 = 0.8;
 
 /// Tissue motion SDs a reported point's centre must lie inside the outer elements' centres.
 const EDGE_MOTION_SDS: f64 = 1.0;
@@ -363,11 +369,17 @@ impl BeatSlide {
         // the artery (an occlusion) fades fix by fix and stays reported; a beat felt
         // smeared is a dip below both.
         let usual_n = self.pulse.map_or(0.0, |p| p.amplitude_n);
-        let reference_n = usual_n.min(self.previous_amplitude_n);
+        // Within a pitch of the outer elements' centres the fit has one flank to go by and
+        // trades amplitude for place: a centre pulled in from beyond the end shows as a
+        // weaker pulse. There the usual amplitude alone is the reference, and more of it.
+        let outer = (crate::types::ELEMENTS - 1) as f64;
+        let needed_n = if located.element.min(outer - located.element) < FLANK_ELEMENTS {
+            FLANK_FRACTION * usual_n
+        } else {
+            REPORT_FRACTION * usual_n.min(self.previous_amplitude_n)
+        };
         self.previous_amplitude_n = located.amplitude_n;
-        if (margin..=last).contains(&located.element)
-            && located.amplitude_n >= REPORT_FRACTION * reference_n
-        {
+        if (margin..=last).contains(&located.element) && located.amplitude_n >= needed_n {
             self.emit(TrackerEvent::Located(located));
         }
     }
@@ -1473,6 +1485,43 @@ mod tests {
         };
         assert_eq!(after(1.1 * felt), 1);
         assert_eq!(after(1.5 * felt), 0);
+    }
+
+    #[test]
+    fn near_the_arrays_end_a_weaker_pulse_is_a_flank_and_not_reported() {
+        let felt = with_pulse(1.0).amplitude_n(&fix(0.0).kernel);
+        // Usual amplitude `usual_n`, the last fix as strong as this one (no fade to excuse
+        // nor to blame), the fix centred on `element`.
+        let run = |element: f64, usual_n: f64| {
+            let mut t = with_pulse(usual_n);
+            t.previous_amplitude_n = felt;
+            let f = fix(0.0);
+            let mut at = f;
+            at.kernel.element = element;
+            reported_after(t, &f, &at).0
+        };
+        let below_flank = felt / FLANK_FRACTION * 1.01;
+        let above_flank = felt / FLANK_FRACTION * 0.99;
+        // Inside, 0.79 of the usual is reported (above `REPORT_FRACTION`).
+        assert_eq!(run(4.5, below_flank), 1);
+        assert_eq!(run(1.01, below_flank), 1);
+        assert_eq!(run(7.99, below_flank), 1);
+        // Within a pitch of either end it is a flank; at 0.81 it is the artery.
+        assert_eq!(run(0.99, below_flank), 0);
+        assert_eq!(run(8.01, below_flank), 0);
+        assert_eq!(run(0.2, above_flank), 1);
+        assert_eq!(run(8.8, above_flank), 1);
+        // A pulse fading fix by fix is excused inside, not within a pitch of an end.
+        let fading = |element: f64| {
+            let mut t = with_pulse(2.0 * felt);
+            t.previous_amplitude_n = 1.1 * felt;
+            let f = fix(0.0);
+            let mut at = f;
+            at.kernel.element = element;
+            reported_after(t, &f, &at).0
+        };
+        assert_eq!(fading(4.5), 1);
+        assert_eq!(fading(0.5), 0);
     }
 
     #[test]
