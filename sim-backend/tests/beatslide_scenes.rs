@@ -134,15 +134,14 @@ fn weak_pulse_12kpa() {
 }
 
 #[test]
-fn weak_pulse_6kpa_is_felt_at_the_marks() {
+fn weak_pulse_6kpa_is_felt_at_the_marks_and_found_again_at_rest() {
     // At the edge: the marks find it (the long window at rest), the slide may not hold it.
+    // Where it loses it, the search at rest lasts as long as a fix (twelve beats): with
+    // four seconds this trial searched twice, found nothing and ended lost at 131 s.
     let (_, t) = run("weak-pulse-6kpa");
     assert_ne!(t.end_reason, "not_seeded", "{}", summary(&t));
-    assert!(
-        t.lateral_error_m.max < 4.0e-3 || t.lateral_error_m.points == 0,
-        "{}",
-        summary(&t)
-    );
+    assert!(t.completed, "{}", summary(&t));
+    assert!(t.lateral_error_m.max < 4.0e-3, "{}", summary(&t));
 }
 
 #[test]

@@ -103,7 +103,10 @@ impl BeatSlide {
         attempt: usize,
     ) {
         let t = input.frame.t_s;
-        let ready = self.rest_window(input, &mut since_s, self.params.search_window_s);
+        // At least the beats a fix of this pulse takes: a weak pulse that needs twelve beats
+        // per fix is not found in four seconds.
+        let window_s = self.params.search_window_s.max(self.window_len_s());
+        let ready = self.rest_window(input, &mut since_s, window_s);
         self.state = State::Searching { since_s, attempt };
         let Some(since) = ready else {
             return;
