@@ -12,23 +12,38 @@ use control::tracker::beatslide::{BeatSlide, BeatSlideParams};
 use control::tracker::{LocatedPoint, Tracker, TrackerEvent};
 use support::world::{ArteryPath, Mover, World, run};
 
-/// The artery along `x` at `z` = 0, the sensor resting 1 mm beside it.
-fn mark(breathing: (f64, f64, f64), seed: u64) -> (LocatedPoint, World) {
+/// A mark on the artery along `x` at `z` = 0 with the sensor resting at `sensor_z_m`: the
+/// period it learned, the point it reported, and the world after it.
+fn mark_at(
+    breathing: (f64, f64, f64),
+    seed: u64,
+    sensor_z_m: f64,
+) -> (Option<f64>, Option<LocatedPoint>, World) {
     let mut world = World::seed_bench(
         ArteryPath::straight(SurfacePoint::new(-0.05, 0.0), 0.0, 0.1),
         seed,
     );
     world.breathing = breathing;
     let mut t = BeatSlide::new(BeatSlideParams::default(), Default::default()).expect("params");
-    let mut mover = Mover::at(SurfacePoint::new(0.0, 0.001));
+    let mut mover = Mover::at(SurfacePoint::new(0.0, sensor_z_m));
     t.mark().expect("mark");
     let trace = run(&mut t, &mut world, &mut mover, 60_000, |e| {
         matches!(e, TrackerEvent::Located(_) | TrackerEvent::Missed { .. })
+    });
+    let period = trace.events.iter().find_map(|e| match e {
+        TrackerEvent::Pulse { period_s, .. } => Some(*period_s),
+        _ => None,
     });
     let located = trace.events.iter().find_map(|e| match e {
         TrackerEvent::Located(p) => Some(*p),
         _ => None,
     });
+    (period, located, world)
+}
+
+/// The sensor resting 1 mm beside the artery.
+fn mark(breathing: (f64, f64, f64), seed: u64) -> (LocatedPoint, World) {
+    let (_, located, world) = mark_at(breathing, seed, 0.001);
     (located.expect("the mark found the pulse"), world)
 }
 
@@ -70,30 +85,6 @@ fn a_mark_on_still_tissue_reports_the_whole_window() {
     }
 }
 
-/// The period a mark learned and the point it reported.
-fn mark_pulse(breathing: (f64, f64, f64), seed: u64) -> (Option<f64>, Option<LocatedPoint>) {
-    let mut world = World::seed_bench(
-        ArteryPath::straight(SurfacePoint::new(-0.05, 0.0), 0.0, 0.1),
-        seed,
-    );
-    world.breathing = breathing;
-    let mut t = BeatSlide::new(BeatSlideParams::default(), Default::default()).expect("params");
-    let mut mover = Mover::at(SurfacePoint::new(0.0, 0.0));
-    t.mark().expect("mark");
-    let trace = run(&mut t, &mut world, &mut mover, 60_000, |e| {
-        matches!(e, TrackerEvent::Located(_) | TrackerEvent::Missed { .. })
-    });
-    let period = trace.events.iter().find_map(|e| match e {
-        TrackerEvent::Pulse { period_s, .. } => Some(*period_s),
-        _ => None,
-    });
-    let located = trace.events.iter().find_map(|e| match e {
-        TrackerEvent::Located(p) => Some(*p),
-        _ => None,
-    });
-    (period, located)
-}
-
 #[test]
 fn a_mark_under_strong_breathing_learns_the_heart_not_its_sidebands() {
     // 4 mm at 0.28 Hz across a 1 Hz pulse: the heart's line gets sidebands at 0.72 and
@@ -106,7 +97,7 @@ fn a_mark_under_strong_breathing_learns_the_heart_not_its_sidebands() {
     for f in [0.25, 0.27, 0.28, 0.3] {
         for k in 0..8u64 {
             let phase = k as f64 * std::f64::consts::FRAC_PI_4;
-            let (period, p) = mark_pulse((0.004, f, phase), 1 + k);
+            let (period, p, _) = mark_at((0.004, f, phase), 1 + k, 0.0);
             let period = period.expect("the mark reports the period it learned");
             let p = p.expect("the mark answers");
             if (period - 1.0).abs() > 0.05 {
