@@ -175,13 +175,7 @@ impl PulseSearch {
         };
         let (t0, span) = (first.t_s, last.t_s - first.t_s);
         // Sub-windows short enough for the heart to keep its phase within each.
-        let coherent = if settings.coherent_s.is_finite() && settings.coherent_s > 0.0 {
-            settings.coherent_s
-        } else {
-            f64::INFINITY
-        };
-        let m = ((span / coherent).floor() as usize).clamp(1, MAX_SUBWINDOWS);
-        let sub_span = span / m as f64;
+        let (m, sub_span) = sub_windows(span, settings.coherent_s);
         // The longest period the window holds enough cycles of.
         let window_hi = sub_span / settings.min_cycles.max(1.0);
         let hi = hi.min(window_hi);
@@ -192,7 +186,7 @@ impl PulseSearch {
         let block_var = noise_sd_n * noise_sd_n / d as f64;
         // Frequency grid: a tenth of a cycle of drift across a sub-window per step.
         let (f_lo, f_hi) = (1.0 / hi, 1.0 / lo);
-        let df = 0.1 / sub_span;
+        let df = GRID_CYCLES / sub_span;
         let blocks = &self.blocks;
         let stat_at = |f: f64| -> f64 {
             spatial_scatter(blocks.iter(), &bounds, f)
@@ -438,6 +432,27 @@ fn argmax(stat_at: &impl Fn(f64) -> f64, f_lo: f64, f_hi: f64, df: f64) -> (f64,
 
 /// Most sub-windows a search splits a window into.
 const MAX_SUBWINDOWS: usize = 64;
+
+/// The search's frequency step, in cycles over a sub-window.
+pub const GRID_CYCLES: f64 = 0.1;
+
+/// How many sub-windows a window of `span_s` is cut into for a coherent stretch of
+/// `coherent_s` (any non-positive or non-finite value: one), and their length, s.
+fn sub_windows(span_s: f64, coherent_s: f64) -> (usize, f64) {
+    let coherent = if coherent_s.is_finite() && coherent_s > 0.0 {
+        coherent_s
+    } else {
+        f64::INFINITY
+    };
+    let m = ((span_s / coherent).floor() as usize).clamp(1, MAX_SUBWINDOWS);
+    (m, span_s / m as f64)
+}
+
+/// The search's frequency resolution over a window of `span_s`, Hz: one cycle over a
+/// sub-window, about the width of a pulse's peak in the statistic.
+pub fn resolution_hz(span_s: f64, settings: &PulseSearchSettings) -> f64 {
+    1.0 / sub_windows(span_s, settings.coherent_s).1
+}
 
 /// A window cut into `m` equal sub-windows from `t0`.
 #[derive(Debug, Clone, Copy)]

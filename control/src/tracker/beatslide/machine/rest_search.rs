@@ -17,16 +17,15 @@
 //! on still tissue nothing changes.
 
 use super::*;
+use crate::signal::pulse_search;
 
-/// Half the width of the band left out around a refused pulse's rate, in cycles over the
-/// window: the statistic's peak is about two cycles over the window wide at its base.
+/// Half the width of the band left out around a refused pulse's rate, in units of the
+/// search's resolution: the statistic's peak is about two of them wide at its base.
 const REFUSED_BAND_CYCLES: f64 = 1.0;
 /// How strong, against the refused pulse's statistic, a pulse elsewhere must be to replace
 /// it: the heart's line was 0.9-1.0 of its sidebands' in the failures traced (breathing's
 /// reporting seeds), while noise elsewhere, which any kernel fits, is far weaker.
 const RIVAL_STRENGTH: f64 = 0.5;
-/// The search's frequency step, in cycles over the window (`pulse_search`'s grid).
-const SEARCH_GRID_CYCLES: f64 = 0.1;
 
 impl BeatSlide {
     pub(super) fn search_settings(&self) -> PulseSearchSettings {
@@ -75,8 +74,9 @@ impl BeatSlide {
         }
         // Not one artery's pattern: look outside its band for one that fits better.
         let f = 1.0 / first.0.phase.period_s;
-        let band = REFUSED_BAND_CYCLES / span_s;
-        let grid = SEARCH_GRID_CYCLES / span_s;
+        let resolution = pulse_search::resolution_hz(span_s, &settings);
+        let band = REFUSED_BAND_CYCLES * resolution;
+        let grid = pulse_search::GRID_CYCLES * resolution;
         // Slower than the band (none when the band reaches zero), and faster.
         let below = (f > band).then(|| PulseSearchSettings {
             min_period_s: settings.min_period_s.max(1.0 / (f - band)),
