@@ -1380,6 +1380,14 @@ mod tests {
         (located, t.last_fix)
     }
 
+    /// A clear fix taken on the path, then the same fix centred on `element` handed on.
+    fn reported_at(t: BeatSlide, element: f64) -> (usize, Option<SurfacePoint>) {
+        let f = fix(0.0);
+        let mut at = f;
+        at.kernel.element = element;
+        reported_after(t, &f, &at)
+    }
+
     /// While sliding, a fix whose place the load disputes steers the track (the path
     /// grows, the last fix moves) but is not reported; an undisputed one is reported.
     #[test]
@@ -1402,12 +1410,7 @@ mod tests {
 
     #[test]
     fn a_sliding_fix_beyond_the_arrays_outer_elements_steers_but_is_not_reported() {
-        let run = |element: f64| {
-            let f = fix(0.0);
-            let mut beyond = f;
-            beyond.kernel.element = element;
-            reported_after(with_pulse(0.08), &f, &beyond)
-        };
+        let run = |element: f64| reported_at(with_pulse(0.08), element);
         // Both outer elements' centres are still under the array; a hair beyond is not.
         assert_eq!(run(0.0).0, 1);
         assert_eq!(run(9.0).0, 1);
@@ -1448,10 +1451,7 @@ mod tests {
                 t.tissue
                     .push(if k % 2 == 0 { motion_m } else { -motion_m }, 0.0);
             }
-            let f = fix(0.0);
-            let mut near_end = f;
-            near_end.kernel.element = element;
-            reported_after(t, &f, &near_end).0
+            reported_at(t, element).0
         };
         // Still tissue: up to the outer elements' centres.
         assert_eq!(run(0.2, 0.0), 1);
@@ -1495,10 +1495,7 @@ mod tests {
         let run = |element: f64, usual_n: f64| {
             let mut t = with_pulse(usual_n);
             t.previous_amplitude_n = felt;
-            let f = fix(0.0);
-            let mut at = f;
-            at.kernel.element = element;
-            reported_after(t, &f, &at).0
+            reported_at(t, element).0
         };
         let below_flank = felt / FLANK_FRACTION * 1.01;
         let above_flank = felt / FLANK_FRACTION * 0.99;
@@ -1515,10 +1512,7 @@ mod tests {
         let fading = |element: f64| {
             let mut t = with_pulse(2.0 * felt);
             t.previous_amplitude_n = 1.1 * felt;
-            let f = fix(0.0);
-            let mut at = f;
-            at.kernel.element = element;
-            reported_after(t, &f, &at).0
+            reported_at(t, element).0
         };
         assert_eq!(fading(4.5), 1);
         assert_eq!(fading(0.5), 0);
