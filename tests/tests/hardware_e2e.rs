@@ -92,7 +92,18 @@ fn emulated_rig_session() -> Result<(), Stalled> {
     );
 
     // A pulse goes in at the emulated array and a localization comes out of the daemon.
-    call(&mut c, "mark", json!({}));
+    let r = c.request("mark", json!({}), T).expect("reply");
+    if r["ok"] != true {
+        // Refused only when the emulated arm, slowed by a loaded machine, was still moving
+        // as the move's settling time ran out (seen once in CI: 0.10 mm short, arriving
+        // later): a stall, like stale data at `enable`.
+        let why = r["reason"].as_str().unwrap_or("");
+        assert!(
+            why.contains("still moving when the settling time ran out"),
+            "mark refused: {r}"
+        );
+        return Err(Stalled(format!("mark refused: {r}")));
+    }
     let e = next_event(&mut c, "the mark's result", |e| {
         e["event"] == "detection" && (e["kind"] == "located" || e["kind"] == "missed")
     })?;
