@@ -18,8 +18,16 @@ fn start(dir: &Path) -> (Daemon, Client) {
     start_with(dir, None)
 }
 
-/// The daemon on the double, joint 0 (the sensor's x) stopped at `wall_x_m` if given.
 fn start_with(dir: &Path, wall_x_m: Option<f64>) -> (Daemon, Client) {
+    start_with_servo(dir, wall_x_m, double::FakeServo::default())
+}
+
+/// The daemon on the double, joint 0 (the sensor's x) stopped at `wall_x_m` if given.
+fn start_with_servo(
+    dir: &Path,
+    wall_x_m: Option<f64>,
+    servo: double::FakeServo,
+) -> (Daemon, Client) {
     pulsetrack_daemon::service::logging::init("warn");
     let mut loaded = LoadedConfig::load(None).expect("embedded config");
     let c = &mut loaded.config;
@@ -35,7 +43,7 @@ fn start_with(dir: &Path, wall_x_m: Option<f64>) -> (Daemon, Client) {
         loaded,
         Parts {
             backend: double::backend_with_wall(wall_x_m),
-            servo: Box::new(double::FakeServo::default()),
+            servo: Box::new(servo),
             tracker: Box::new(|| Ok(Box::new(double::FakeTracker::new()))),
         },
     )
@@ -312,5 +320,65 @@ fn mark_is_refused_when_the_arm_stops_short_and_says_by_how_much() {
         assert!(Instant::now() < deadline, "mark still refused: {r}");
         std::thread::sleep(Duration::from_millis(20));
     }
+    daemon.shutdown().expect("clean stop");
+}
+
+#[test]
+fn a_placement_still_moving_at_its_deadline_is_marked_once_it_rests_there() {
+    let dir = tempfile::tempdir().expect("tmp");
+    // The first move is still moving when its settling time runs out, though already within
+    // the arrival tolerance (a loaded machine, an arm ringing): the loop judges it short of
+    // its target, not at rest, and holds. Resting there, the arm has arrived after all.
+    let (daemon, mut c) = start_with_servo(dir.path(), None, double::FakeServo::restless(1));
+    call(&mut c, "subscribe", json!({"streams": ["state"]}));
+    call(&mut c, "enable", json!({}));
+    call(&mut c, "move", json!({"x_m": 0.01, "z_m": 0.0}));
+    let ev = loop {
+        let e = c
+            .next_event(Duration::from_secs(60))
+            .expect("event")
+            .expect("an event");
+        if e["event"] == "motion" && e["kind"] == "stopped_short" {
+            break e;
+        }
+    };
+    assert_eq!(ev["reason"], "not_at_rest", "{ev}");
+    wait_state(&mut c, "holding");
+    // The hold comes to rest within a few cycles; from then on the mark is taken.
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let r = c.request("mark", json!({}), T).expect("reply");
+        if r["ok"] == true {
+            break;
+        }
+        assert!(
+            r["reason"].as_str().unwrap_or("").contains("cannot mark"),
+            "{r}"
+        );
+        assert!(Instant::now() < deadline, "mark still refused: {r}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let status = call(&mut c, "status", json!({}));
+    assert!(
+        !status["trial"].is_null(),
+        "the mark started no trial: {status}"
+    );
+    daemon.shutdown().expect("clean stop");
+}
+
+#[test]
+fn a_placement_still_moving_at_its_deadline_far_from_its_target_is_not_marked() {
+    let dir = tempfile::tempdir().expect("tmp");
+    // As above, but the arm cannot pass x = 4 mm: it rests 6 mm from the placement.
+    let (daemon, mut c) = start_with_servo(dir.path(), Some(0.004), double::FakeServo::restless(1));
+    call(&mut c, "subscribe", json!({"streams": ["state"]}));
+    call(&mut c, "enable", json!({}));
+    call(&mut c, "move", json!({"x_m": 0.01, "z_m": 0.0}));
+    wait_state(&mut c, "holding");
+    std::thread::sleep(Duration::from_millis(300));
+    let r = c.request("mark", json!({}), T).expect("reply");
+    assert_eq!(r["ok"], false, "marked where the arm did not get: {r}");
+    let status = call(&mut c, "status", json!({}));
+    assert!(status["trial"].is_null(), "{status}");
     daemon.shutdown().expect("clean stop");
 }

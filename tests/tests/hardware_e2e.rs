@@ -92,18 +92,9 @@ fn emulated_rig_session() -> Result<(), Stalled> {
     );
 
     // A pulse goes in at the emulated array and a localization comes out of the daemon.
-    let r = c.request("mark", json!({}), T).expect("reply");
-    if r["ok"] != true {
-        // Refused only when the emulated arm, slowed by a loaded machine, was still moving
-        // as the move's settling time ran out (seen once in CI: 0.10 mm short, arriving
-        // later): a stall, like stale data at `enable`.
-        let why = r["reason"].as_str().unwrap_or("");
-        assert!(
-            why.contains("still moving when the settling time ran out"),
-            "mark refused: {r}"
-        );
-        return Err(Stalled(format!("mark refused: {r}")));
-    }
+    // A placement still moving at its settling deadline (a loaded machine) is marked once
+    // it rests within the arrival tolerance: the daemon judges it afresh at the mark.
+    call(&mut c, "mark", json!({}));
     let e = next_event(&mut c, "the mark's result", |e| {
         e["event"] == "detection" && (e["kind"] == "located" || e["kind"] == "missed")
     })?;

@@ -99,6 +99,9 @@ pub struct SupervisorSettings {
     pub trial_metadata: Vec<MetadataRecord>,
     /// The arm's geometry, to record its frame tree (`None`: not recorded).
     pub arm: Option<control::kinematics::ArmModel>,
+    /// How near its target a motion must come to rest to have arrived, m (the motion
+    /// planner's `settle_tolerance_m`).
+    pub arrival_tolerance_m: f64,
 }
 
 /// The channels the supervisor works with.
@@ -128,7 +131,8 @@ enum Purpose {
     Disable,
     Reset,
     Estop,
-    ManualMove,
+    /// A surgeon's placement, with its target.
+    ManualMove(SurfacePoint),
     Pause,
     StopHold,
     TrackerMove,
@@ -138,6 +142,16 @@ enum Purpose {
     /// Coming to rest before a failed recording latches its fault.
     RecordingHold,
     Latch,
+}
+
+/// A motion that stopped short of its target (see `Supervisor::stopped_short`).
+#[derive(Debug, Clone, Copy)]
+struct StoppedShort {
+    /// The hold the loop rests on since.
+    hold_seq: u64,
+    shortfall: control::motion::Shortfall,
+    /// The surgeon's placement it was going to; `None` for a tracker's move.
+    placement: Option<SurfacePoint>,
 }
 
 struct Pending {
@@ -181,8 +195,12 @@ pub struct Supervisor {
     /// The motion whose settling the tracker and the manual moves wait for.
     motion_seq: u64,
     /// The last manual move (or the trial's last move) stopped short of its target: no mark
-    /// until a manual move arrives. With the motion it was judged on.
-    stopped_short: Option<(u64, control::motion::Shortfall)>,
+    /// until a manual move arrives, or the arm comes to rest within the arrival tolerance of
+    /// that placement after all. With the hold it rests on and the placement's target (none
+    /// for a tracker's move).
+    stopped_short: Option<StoppedShort>,
+    /// The last manual move acknowledged by the loop, and its target.
+    placement: Option<(u64, SurfacePoint)>,
     tracker_target: Option<SurfacePoint>,
     /// The believed sensor positions while no trial runs: the approach to the first
     /// placement, handed to the next trial's tracker at its first mark.
@@ -253,6 +271,7 @@ impl Supervisor {
             next_seq: 1,
             motion_seq: 0,
             stopped_short: None,
+            placement: None,
             tracker_target: None,
             approach: ApproachTrail::default(),
             pending: Vec::new(),
@@ -738,8 +757,9 @@ impl Supervisor {
                 self.set_state(OpState::Disabled);
             }
             Purpose::Estop => {}
-            Purpose::ManualMove => {
+            Purpose::ManualMove(target) => {
                 self.motion_seq = seq;
+                self.placement = Some((seq, target));
                 self.stopped_short = None;
                 self.set_state(OpState::Moving);
             }
@@ -764,7 +784,7 @@ impl Supervisor {
         }
         if let Some((id, to)) = reply {
             let result = match p.purpose {
-                Purpose::ManualMove => json!({"motion_seq": seq}),
+                Purpose::ManualMove(_) => json!({"motion_seq": seq}),
                 _ => json!({}),
             };
             self.reply_ok(id, to, result, durable);

@@ -172,9 +172,26 @@ impl Supervisor {
                 target,
                 speed_m_s: speed,
             },
-            Purpose::ManualMove,
+            Purpose::ManualMove(target),
             Some((id, to)),
         );
+    }
+
+    /// A placement that was still moving when its settling time ran out has arrived after
+    /// all: the hold that followed has come to rest (the loop's own verdict, from the
+    /// encoders), and there the believed sensor centre is within the arrival tolerance of
+    /// the placement's target. Judged afresh at each mark, not kept from the deadline.
+    fn rests_on_placement(&self, short: super::StoppedShort) -> bool {
+        let Some(target) = short.placement else {
+            return false;
+        };
+        let Some(st) = self.links.status.read() else {
+            return false;
+        };
+        st.settled
+            && st.motion_seq == short.hold_seq
+            && st.sensor.is_finite()
+            && st.sensor.distance_to(&target) <= self.s.arrival_tolerance_m
     }
 
     pub(super) fn mark(&mut self, id: u64, to: Responder, t: f64, logged: &Value) {
@@ -188,7 +205,21 @@ impl Supervisor {
             return self.reply_err(id, to, ErrorCode::Refused, &why);
         }
         // Marks happen only where the arm has arrived (judged from the encoders).
-        if let Some((_, s)) = self.stopped_short {
+        if let Some(short) = self.stopped_short
+            && self.rests_on_placement(short)
+        {
+            self.stopped_short = None;
+            self.log_line(
+                t,
+                level::INFO,
+                format!(
+                    "the arm came to rest within the arrival tolerance of its placement after its settling time ({}); marking",
+                    short.shortfall
+                ),
+            );
+        }
+        if let Some(short) = self.stopped_short {
+            let s = short.shortfall;
             let why = format!(
                 "cannot mark here: {s} ({:.2} mm, more than the arrival tolerance); nothing was marked; move the arm onto the placement again (check the instrument's mass and the joints' friction)",
                 s.distance_m * 1e3

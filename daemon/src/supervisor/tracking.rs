@@ -84,7 +84,7 @@ impl Supervisor {
     /// encoders): say so once, end a trial in progress as `short_of_target`, and hold where
     /// the arm is. A manual move that stopped short blocks `mark` until a move arrives.
     pub(super) fn on_stopped_short(&mut self, seq: u64, s: control::motion::Shortfall) {
-        if self.stopped_short.is_some_and(|(old, _)| old == seq) {
+        if self.stopped_short.is_some_and(|old| old.hold_seq == seq) {
             return;
         }
         let t = self.now_s();
@@ -111,8 +111,15 @@ impl Supervisor {
             Purpose::TrackerHold,
             None,
         );
-        // Remembered under the hold's number: `mark` stays refused while the arm rests here.
-        self.stopped_short = Some((hold, s));
+        // Remembered under the hold's number: `mark` stays refused while the arm rests here,
+        // unless it rests within the arrival tolerance of the surgeon's placement after all.
+        self.stopped_short = Some(super::StoppedShort {
+            hold_seq: hold,
+            shortfall: s,
+            placement: self
+                .placement
+                .and_then(|(placed, target)| (placed == seq).then_some(target)),
+        });
         if tracking {
             self.set_state(OpState::Done);
         } else if self.state == OpState::Moving {

@@ -126,6 +126,21 @@ pub struct FakeServo {
     speed: f64,
     /// When the setpoint reached the target, for the settling time.
     finished_s: Option<f64>,
+    /// Moves still to come that are reported as still moving at their settling deadline,
+    /// and whether the current one is.
+    restless_moves: u32,
+    restless: bool,
+}
+
+impl FakeServo {
+    /// The next `moves` moves never settle by themselves: at their settling deadline they
+    /// are short of their target as not at rest, wherever the arm is. Holds settle.
+    pub fn restless(moves: u32) -> Self {
+        Self {
+            restless_moves: moves,
+            ..Self::default()
+        }
+    }
 }
 
 /// As control's default `settle_timeout_s`.
@@ -146,6 +161,7 @@ impl Servo for FakeServo {
         self.setpoint = Some(p);
         self.target = p;
         self.finished_s = None;
+        self.restless = false;
         Ok(())
     }
     fn move_to(&mut self, _now: f64, target: SurfacePoint, speed: f64) -> Result<(), Refusal> {
@@ -155,6 +171,8 @@ impl Servo for FakeServo {
         self.target = target;
         self.speed = speed;
         self.finished_s = None;
+        self.restless = self.restless_moves > 0;
+        self.restless_moves = self.restless_moves.saturating_sub(1);
         Ok(())
     }
     fn hold(&mut self, _now: f64) {
@@ -162,6 +180,7 @@ impl Servo for FakeServo {
             self.target = p;
         }
         self.finished_s = None;
+        self.restless = false;
     }
     fn step(&mut self, now: f64, s: &JointState, dt: f64) -> Result<ServoStep, Fault> {
         let sp = self
@@ -192,8 +211,13 @@ impl Servo for FakeServo {
             self.finished_s = Some(now);
         }
         let to_go = here.distance_to(&self.target);
-        let settled = done && to_go < 5e-4;
+        let settled = done && to_go < 5e-4 && !self.restless;
         let timed_out = self.finished_s.is_some_and(|t| now - t >= SETTLE_TIMEOUT_S);
+        let reason = if self.restless {
+            control::motion::ShortfallReason::NotAtRest
+        } else {
+            control::motion::ShortfallReason::Stalled
+        };
         Ok(ServoStep {
             torques,
             setpoint: next,
@@ -201,7 +225,7 @@ impl Servo for FakeServo {
             settled,
             shortfall: (timed_out && !settled).then_some(control::motion::Shortfall {
                 distance_m: to_go,
-                reason: control::motion::ShortfallReason::Stalled,
+                reason,
             }),
         })
     }
