@@ -128,6 +128,10 @@ pub enum Miss {
     Faint { amplitude_n: f64, usual_n: f64 },
     #[error("no believed sensor position in the window")]
     NoPosition,
+    #[error(
+        "the pulse and its inverse fit the kernel about as well (chi-square {margin_chi2:.1} apart): which way it points is not known yet"
+    )]
+    SignAmbiguous { margin_chi2: f64 },
     #[error("no path model")]
     NoModel,
 }
@@ -643,7 +647,18 @@ impl BeatSlide {
         let Some(since) = ready else {
             return;
         };
-        match self.search_at_rest(since) {
+        // A mark must know which way its pulse points: at a weak pulse's noise the pattern
+        // and its inverse can fit the kernel about equally well, at places 5-8 mm apart
+        // (`sign_margin_chi2`). Such a window grows like one that found nothing.
+        let searched = self.search_at_rest(since).and_then(|r| {
+            let margin_chi2 = self.sign_margin_chi2(&r.0);
+            if margin_chi2 < rest_search::SIGN_MARGIN_CHI2 {
+                Err(Miss::SignAmbiguous { margin_chi2 })
+            } else {
+                Ok(r)
+            }
+        });
+        match searched {
             Ok((found, fit, sensor)) => {
                 self.learn_pulse(&found, &fit, t - since, t);
                 let lag_dir = self.history.since(since).mean_lag();

@@ -22,6 +22,12 @@ use crate::signal::pulse_search;
 /// Half the width of the band left out around a refused pulse's rate, in units of the
 /// search's resolution: the statistic's peak is about two of them wide at its base.
 const REFUSED_BAND_CYCLES: f64 = 1.0;
+/// How much better, in chi-square, a mark's pulse must fit the kernel than its inverse: a
+/// likelihood ratio of 100 (2 ln 100). On the scene families' tuning and reporting seeds
+/// and 150 fresh seed-bench-mixed draws (2377 marks) it held back 7 of the 8 marks more
+/// than 2 mm off (5-8 mm, margins 0.9-5.2) and 30 of the others.
+pub(super) const SIGN_MARGIN_CHI2: f64 = 9.21;
+
 /// How strong, against the refused pulse's statistic, a pulse elsewhere must be to replace
 /// it: the heart's line was 0.9-1.0 of its sidebands' in the failures traced (breathing's
 /// reporting seeds), while noise elsewhere, which any kernel fits, is far weaker.
@@ -113,6 +119,23 @@ impl BeatSlide {
         Ok((found, fit, sensor))
     }
 
+    /// How much better `found`'s pattern fits the kernel than its inverse's, in chi-square
+    /// (infinite when the inverse cannot be fitted; zero when neither can). A strong pulse
+    /// fits one sign by tens to thousands; at a weak pulse's noise a broad positive pattern
+    /// and one negative element can fit about equally, the first as a kernel beyond the
+    /// array's end, the second as a faint peak on it.
+    pub(super) fn sign_margin_chi2(&self, found: &PulseFound) -> f64 {
+        let se = found.amplitudes.se_per_sigma * found.noise_sd_n;
+        let chi2 = |f: &PulseFound| {
+            fit_kernel(&f.amplitudes.amplitude_n, se, &self.geometry).map(|k| k.chi2)
+        };
+        match (chi2(found), chi2(&found.flipped())) {
+            (Ok(a), Ok(b)) => (a - b).abs(),
+            (Ok(_), Err(_)) | (Err(_), Ok(_)) => f64::INFINITY,
+            (Err(_), Err(_)) => 0.0,
+        }
+    }
+
     /// Is `a` a better reading of the window than `b`: one artery's pattern against none,
     /// the stronger of two that are, the closer to one kernel (its misfit per unit of
     /// signal) of two that are not.
@@ -164,4 +187,79 @@ fn placed_pulse(
         fit.offset_se_m = 2.0 * geometry.pitch_m;
     }
     Ok((found, fit))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::signal::harmonic::{Projection, PulsePhase};
+    use crate::signal::kernel_fit::element_kernel;
+    use crate::types::ELEMENTS;
+
+    fn found(amplitude_n: [f64; ELEMENTS], se_n: f64) -> PulseFound {
+        let noise_sd_n = 0.0138;
+        let mut waveform = Waveform::zeros();
+        waveform[0] = 1.0;
+        PulseFound {
+            phase: PulsePhase {
+                t_ref_s: 0.0,
+                period_s: 0.76,
+            },
+            waveform,
+            amplitudes: Projection {
+                amplitude_n,
+                se_per_sigma: se_n / noise_sd_n,
+            },
+            statistic: 9.0,
+            noise_sd_n,
+        }
+    }
+
+    fn tracker() -> BeatSlide {
+        BeatSlide::new(BeatSlideParams::default(), ArrayGeometry::default()).expect("defaults")
+    }
+
+    fn negated(a: [f64; ELEMENTS]) -> [f64; ELEMENTS] {
+        a.map(|v| -v)
+    }
+
+    #[test]
+    fn a_clear_pulse_fits_one_sign_by_far_either_way_round() {
+        let g = ArrayGeometry::default();
+        // 30 mN at element 4.3, 5 mm wide, each amplitude known to 1 mN.
+        let a: [f64; ELEMENTS] = std::array::from_fn(|e| {
+            0.03 * element_kernel((e as f64 - 4.3) * g.pitch_m, 0.005, g.pitch_m)
+                / element_kernel(0.0, 0.005, g.pitch_m)
+        });
+        let t = tracker();
+        let margin = t.sign_margin_chi2(&found(a, 0.001));
+        assert!(margin > 100.0, "margin {margin}");
+        let inverse = t.sign_margin_chi2(&found(negated(a), 0.001));
+        assert!(
+            (margin - inverse).abs() < 1e-6 * margin,
+            "{margin} vs {inverse}"
+        );
+    }
+
+    #[test]
+    fn a_pulse_at_the_noise_does_not_know_its_sign() {
+        // The first mark of seed-bench-mixed draw 5147 (31 kPa on the seed's tube 5.2 mm
+        // deep, 13.8 mN of element noise), as the simulator's frames gave it: the artery
+        // lay under element 3, where the pattern is broad and positive; the search took the
+        // inverse, whose one peak at element 8 fits the kernel slightly better (chi-square
+        // 8.5 against 9.7), and the seed point was 6.3 mm off.
+        let a = [
+            -0.002417, -0.002476, -0.003169, -0.005566, -0.002667, -0.002372, -0.002080, 0.000427,
+            0.004185, 0.000073,
+        ];
+        let se = 9.668e-4;
+        let t = tracker();
+        let margin = t.sign_margin_chi2(&found(a, se));
+        assert!(margin < SIGN_MARGIN_CHI2, "margin {margin}");
+        assert!((margin - 1.2).abs() < 0.1, "margin {margin}");
+        // The two readings are far apart: which one holds matters.
+        let g = ArrayGeometry::default();
+        let place = |a| fit_kernel(&a, se, &g).expect("fit").element;
+        assert!((place(a) - place(negated(a))).abs() > 2.0);
+    }
 }
