@@ -42,10 +42,15 @@ fn beats_per_26cm(t: &TrialResult) -> f64 {
 /// Completed, within `sd_m` of the artery (SD and, 4x looser, the worst point) and within
 /// `beats` heartbeats per 26 cm.
 fn assert_tracks(name: &str, sd_m: f64, beats: f64) {
+    assert_tracks_with(name, sd_m, beats, 5);
+}
+
+/// As [`assert_tracks`], with at least `points` points (not counting the seeds).
+fn assert_tracks_with(name: &str, sd_m: f64, beats: f64, points: usize) {
     let (_, t) = run(name);
     let why = summary(&t);
     assert!(t.completed, "{name}: {why}");
-    assert!(t.lateral_error_m.points >= 5, "{name}: {why}");
+    assert!(t.lateral_error_m.points >= points, "{name}: {why}");
     assert!(t.lateral_error_m.sd < sd_m, "{name}: {why}");
     assert!(t.lateral_error_m.max < 4.0 * sd_m, "{name}: {why}");
     assert!(beats_per_26cm(&t) < beats, "{name}: {why}");
@@ -100,7 +105,9 @@ fn tight_arc_20_fails_without_wandering() {
 
 #[test]
 fn tight_arc_30() {
-    assert_tracks("tight-arc-30", 1.0e-3, 60.0);
+    // Its track is 6 cm: seeds 1-7 report 4 or 5 points. Seed 1's first mark waits 2 s more
+    // since a mark must know its pulse's sign (docs/BENCHMARKS.md), and then reports 4.
+    assert_tracks_with("tight-arc-30", 1.0e-3, 60.0, 4);
 }
 
 #[test]
