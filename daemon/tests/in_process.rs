@@ -279,24 +279,48 @@ fn bad_lines_get_errors_and_the_next_request_works() {
     daemon.shutdown().expect("clean stop");
 }
 
-#[test]
-fn mark_is_refused_when_the_arm_stops_short_and_says_by_how_much() {
-    let dir = tempfile::tempdir().expect("tmp");
-    // The arm cannot pass x = 4 mm: a move to 10 mm stops 6 mm short.
-    let (daemon, mut c) = start_with(dir.path(), Some(0.004));
-    call(&mut c, "subscribe", json!({"streams": ["state"]}));
-    call(&mut c, "enable", json!({}));
-    call(&mut c, "move", json!({"x_m": 0.01, "z_m": 0.0}));
-    // The stop short is announced with the shortfall in m and in words.
-    let ev = loop {
+/// Enable, move the sensor to x = 10 mm, and wait for the loop to say the move stopped
+/// short: that event.
+fn move_until_stopped_short(c: &mut Client) -> Value {
+    call(c, "subscribe", json!({"streams": ["state"]}));
+    call(c, "enable", json!({}));
+    call(c, "move", json!({"x_m": 0.01, "z_m": 0.0}));
+    loop {
         let e = c
             .next_event(Duration::from_secs(60))
             .expect("event")
             .expect("an event");
         if e["event"] == "motion" && e["kind"] == "stopped_short" {
-            break e;
+            return e;
         }
-    };
+    }
+}
+
+/// Ask to mark until the daemon takes it (30 s at most); every refusal must be a "cannot
+/// mark" one (the arm not yet there).
+fn mark_once_allowed(c: &mut Client) {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let r = c.request("mark", json!({}), T).expect("reply");
+        if r["ok"] == true {
+            return;
+        }
+        assert!(
+            r["reason"].as_str().unwrap_or("").contains("cannot mark"),
+            "{r}"
+        );
+        assert!(Instant::now() < deadline, "mark still refused: {r}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn mark_is_refused_when_the_arm_stops_short_and_says_by_how_much() {
+    let dir = tempfile::tempdir().expect("tmp");
+    // The arm cannot pass x = 4 mm: a move to 10 mm stops 6 mm short.
+    let (daemon, mut c) = start_with(dir.path(), Some(0.004));
+    // The stop short is announced with the shortfall in m and in words.
+    let ev = move_until_stopped_short(&mut c);
     let short = ev["shortfall_m"].as_f64().expect("shortfall_m");
     assert!((short - 0.006).abs() < 5e-4, "{ev}");
     assert_eq!(ev["reason"], "stalled");
@@ -311,15 +335,7 @@ fn mark_is_refused_when_the_arm_stops_short_and_says_by_how_much() {
     // A move that arrives makes marking possible again.
     call(&mut c, "move", json!({"x_m": 0.003, "z_m": 0.0}));
     wait_state(&mut c, "holding");
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        let r = c.request("mark", json!({}), T).expect("reply");
-        if r["ok"] == true {
-            break;
-        }
-        assert!(Instant::now() < deadline, "mark still refused: {r}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    mark_once_allowed(&mut c);
     daemon.shutdown().expect("clean stop");
 }
 
@@ -330,34 +346,11 @@ fn a_placement_still_moving_at_its_deadline_is_marked_once_it_rests_there() {
     // the arrival tolerance (a loaded machine, an arm ringing): the loop judges it short of
     // its target, not at rest, and holds. Resting there, the arm has arrived after all.
     let (daemon, mut c) = start_with_servo(dir.path(), None, double::FakeServo::restless(1));
-    call(&mut c, "subscribe", json!({"streams": ["state"]}));
-    call(&mut c, "enable", json!({}));
-    call(&mut c, "move", json!({"x_m": 0.01, "z_m": 0.0}));
-    let ev = loop {
-        let e = c
-            .next_event(Duration::from_secs(60))
-            .expect("event")
-            .expect("an event");
-        if e["event"] == "motion" && e["kind"] == "stopped_short" {
-            break e;
-        }
-    };
+    let ev = move_until_stopped_short(&mut c);
     assert_eq!(ev["reason"], "not_at_rest", "{ev}");
     wait_state(&mut c, "holding");
     // The hold comes to rest within a few cycles; from then on the mark is taken.
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        let r = c.request("mark", json!({}), T).expect("reply");
-        if r["ok"] == true {
-            break;
-        }
-        assert!(
-            r["reason"].as_str().unwrap_or("").contains("cannot mark"),
-            "{r}"
-        );
-        assert!(Instant::now() < deadline, "mark still refused: {r}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    mark_once_allowed(&mut c);
     let status = call(&mut c, "status", json!({}));
     assert!(
         !status["trial"].is_null(),
@@ -371,10 +364,10 @@ fn a_placement_still_moving_at_its_deadline_far_from_its_target_is_not_marked() 
     let dir = tempfile::tempdir().expect("tmp");
     // As above, but the arm cannot pass x = 4 mm: it rests 6 mm from the placement.
     let (daemon, mut c) = start_with_servo(dir.path(), Some(0.004), double::FakeServo::restless(1));
-    call(&mut c, "subscribe", json!({"streams": ["state"]}));
-    call(&mut c, "enable", json!({}));
-    call(&mut c, "move", json!({"x_m": 0.01, "z_m": 0.0}));
+    let ev = move_until_stopped_short(&mut c);
+    assert_eq!(ev["reason"], "not_at_rest", "{ev}");
     wait_state(&mut c, "holding");
+    // Time for the hold to come to rest, 6 mm from the placement.
     std::thread::sleep(Duration::from_millis(300));
     let r = c.request("mark", json!({}), T).expect("reply");
     assert_eq!(r["ok"], false, "marked where the arm did not get: {r}");
