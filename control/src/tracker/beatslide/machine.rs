@@ -267,6 +267,13 @@ const MAX_SEEDS: usize = 16;
 const MAX_TISSUE_SD_M: f64 = 0.002;
 /// Tissue motion beyond which a window of several beats is not reported as a point, m.
 const SMEAR_SD_M: f64 = 0.0005;
+/// The arm's load reads the sensor's lag while sliding to within this (its scatter there
+/// is 0.3-0.6 mm RMS frame to frame; over a window the joints' friction leaves a bias of
+/// a few tenths), m.
+const LOAD_LAG_SD_M: f64 = 0.0005;
+/// The lag's direction over a window must be at least this steady (the mean of its unit
+/// directions) for the load's reading to be taken as the lag's.
+const LOAD_LAG_MIN_DIRECTION: f64 = 0.9;
 
 impl BeatSlide {
     pub const NAME: &'static str = "beatslide";
@@ -1342,6 +1349,60 @@ mod tests {
         ));
         // Before any pulse is known (the first mark) there is nothing to compare with.
         assert!(seeded().check_amplitude(&weak).is_ok());
+    }
+
+    /// `seeded()` with `frames` frames of sliding along +x at 10 mm/s pushed, the lag's
+    /// direction `u` in each and the load putting the sensor `felt` from the belief
+    /// (`None`: no reading).
+    fn sliding_with_load(frames: usize, u: [f64; 2], felt: Option<[f64; 2]>) -> BeatSlide {
+        let mut t = seeded();
+        for i in 0..frames {
+            let t_s = 10.0 + 0.01 * i as f64;
+            let sensor = SurfacePoint::new(0.005 + 0.0001 * i as f64, 0.0);
+            let loaded = felt.map(|f| SurfacePoint::new(sensor.x_m + f[0], sensor.z_m + f[1]));
+            let frame = crate::types::TactileFrame {
+                t_s,
+                seq: i as u64,
+                force_n: [0.0; crate::types::ELEMENTS],
+            };
+            t.history.push(frame, sensor, u, loaded);
+        }
+        t
+    }
+
+    #[test]
+    fn the_load_reads_a_heavy_rigs_lag_while_sliding() {
+        // A rig whose sensor trails 9 mm (the heavy instrument's 8-11) against the prior's
+        // 4.5: one window read by the load moves the lag most of the way.
+        let prior = seeded().filter.expect("seeded").lag_m();
+        let mut t = sliding_with_load(100, [1.0, 0.0], Some([-0.009, 0.0003]));
+        t.read_lag_from_load(10.0);
+        let lag = t.filter.expect("seeded").lag_m();
+        assert!((prior - 0.0045).abs() < 1e-9, "{prior}");
+        assert!(lag > 0.0075 && lag < 0.009, "{lag}");
+        // The part of the offset across the lag's direction is no lag.
+        assert_eq!(
+            sliding::lag_read_by_load([-0.009, 0.004], [1.0, 0.0]),
+            Some(0.009)
+        );
+        assert_eq!(
+            sliding::lag_read_by_load([0.0, -0.006], [0.0, 0.95]),
+            Some(0.006 / 0.95)
+        );
+        // While the direction swings round (its mean shorter than 0.9), no reading: nor
+        // for a window with a frame unread, nor with the load's reading turned off.
+        assert_eq!(sliding::lag_read_by_load([-0.009, 0.0], [0.85, 0.0]), None);
+        assert_eq!(sliding::lag_read_by_load([-0.009, 0.0], [0.0, 0.0]), None);
+        let mut swinging = sliding_with_load(100, [0.6, 0.6], Some([-0.009, 0.0]));
+        swinging.read_lag_from_load(10.0);
+        let mut unread = sliding_with_load(100, [1.0, 0.0], None);
+        unread.read_lag_from_load(10.0);
+        let mut off = sliding_with_load(100, [1.0, 0.0], Some([-0.009, 0.0]));
+        off.params.load_gate_m = 0.0;
+        off.read_lag_from_load(10.0);
+        for t in [swinging, unread, off] {
+            assert_eq!(t.filter.expect("seeded").lag_m(), prior);
+        }
     }
 
     /// The default gate on `seeded()` (heading +x): the load's place for a point is the
