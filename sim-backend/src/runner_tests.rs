@@ -422,8 +422,11 @@ fn skipping_a_dead_element_keeps_the_fixes_on_the_artery() {
     let (skipped_sd, skipped_false) = pooled(&skipping);
     assert!(skipped_sd < 0.4e-3, "skipped: SD {skipped_sd}");
     assert_eq!(skipped_false, 0);
+    // Trusting the dead element cost more before the rod's deflection across the motion was
+    // read from the load (SD 0.79 mm then, 0.28 now on these seeds): skipping it must
+    // still do no worse.
     assert!(
-        skipped_sd < 0.6 * trusted_sd,
+        skipped_sd <= trusted_sd,
         "skipped SD {skipped_sd} against trusted {trusted_sd}"
     );
 }

@@ -239,6 +239,9 @@ pub struct BeatSlide {
     rejected_frames: u64,
     /// The pulse amplitude of the last fix offered for reporting, N (NaN before one).
     previous_amplitude_n: f64,
+    /// Where the arm's load puts the sensor across its motion, off the belief and the lag
+    /// (the rod's deflection the tilt and lag models do not hold), smoothed over windows.
+    felt_across: Option<[f64; 2]>,
     last_miss: Option<Miss>,
 }
 
@@ -267,6 +270,9 @@ const MAX_SEEDS: usize = 16;
 const MAX_TISSUE_SD_M: f64 = 0.002;
 /// Tissue motion beyond which a window of several beats is not reported as a point, m.
 const SMEAR_SD_M: f64 = 0.0005;
+/// The last frames before the track starts (at rest on the last placement) over which
+/// the load reads the lag, s.
+const REST_LAG_WINDOW_S: f64 = 1.0;
 /// A point more than this from the artery is a false point (issue 13's rule), m.
 const FALSE_POINT_M: f64 = 0.002;
 /// Standard errors of its own fit within which a point must lie inside `FALSE_POINT_M` to
@@ -276,6 +282,11 @@ const VOUCH_SES: f64 = 3.0;
 /// is 0.3-0.6 mm RMS frame to frame; over a window the joints' friction leaves a bias of
 /// a few tenths), m.
 const LOAD_LAG_SD_M: f64 = 0.0005;
+/// Weight of each window's reading in the smoothed offset across the motion
+/// (`BeatSlide::felt_across`): an exponential average over about two windows, since one
+/// window's reading scatters by 0.3-1 mm. Chosen on the tuning seeds (1001-1060) between
+/// 0.3 and 0.5; reading each window alone (1) reported more points off.
+const FELT_ACROSS_WEIGHT: f64 = 0.5;
 /// The lag's direction over a window must be at least this steady (the mean of its unit
 /// directions) for the load's reading to be taken as the lag's.
 const LOAD_LAG_MIN_DIRECTION: f64 = 0.9;
@@ -325,6 +336,7 @@ impl BeatSlide {
             events: EventQueue::default(),
             rejected_frames: 0,
             previous_amplitude_n: f64::NAN,
+            felt_across: None,
             last_miss: None,
         })
     }
@@ -1033,6 +1045,12 @@ impl Tracker for BeatSlide {
         let filter = PathFilter::from_observations(&self.seeds, heading, settings)
             .map_err(|_| too_close.clone())?;
         self.filter = Some(filter);
+        // At rest after the approach to the last placement, friction holds the rod's
+        // deflection along that approach: the load reads it before the first slide.
+        self.felt_across = None;
+        if let Some(t) = self.history.newest_t_s() {
+            self.read_lag_from_load(t - REST_LAG_WINDOW_S);
+        }
         self.tissue.clear();
         self.limit = limit;
         // The length tracked counts from the first placement. Between the marks it is
@@ -1395,10 +1413,40 @@ mod tests {
         let lag = t.filter.expect("seeded").lag_m();
         assert!((prior - 0.0045).abs() < 1e-9, "{prior}");
         assert!(lag > 0.0075 && lag < 0.009, "{lag}");
+        // Across the motion the reading is the rod's deflection the models do not hold:
+        // the first window's taken whole, later ones averaged in at FELT_ACROSS_WEIGHT.
+        let across = t.felt_across.expect("read");
+        assert!(
+            across[0].abs() < 1e-12 && (across[1] - 0.0003).abs() < 1e-12,
+            "{across:?}"
+        );
+        for i in 100..200 {
+            let t_s = 10.0 + 0.01 * i as f64;
+            let sensor = SurfacePoint::new(0.005 + 0.0001 * i as f64, 0.0);
+            let loaded = SurfacePoint::new(sensor.x_m - 0.009, sensor.z_m + 0.0013);
+            let frame = crate::types::TactileFrame {
+                t_s,
+                seq: i as u64,
+                force_n: [0.0; crate::types::ELEMENTS],
+            };
+            t.history.push(frame, sensor, [1.0, 0.0], Some(loaded));
+        }
+        t.read_lag_from_load(11.0);
+        let across = t.felt_across.expect("read");
+        let expected = 0.0003 + FELT_ACROSS_WEIGHT * (0.0013 - 0.0003);
+        assert!((across[1] - expected).abs() < 1e-12, "{across:?}");
         // The part of the offset across the lag's direction is no lag.
         assert_eq!(
             sliding::lag_read_by_load([-0.009, 0.004], [1.0, 0.0]),
             Some(0.009)
+        );
+        assert_eq!(
+            sliding::felt_across_motion([-0.009, 0.004], [1.0, 0.0]),
+            Some([0.0, 0.004])
+        );
+        assert_eq!(
+            sliding::felt_across_motion([-0.009, 0.0], [0.85, 0.0]),
+            None
         );
         assert_eq!(
             sliding::lag_read_by_load([0.0, -0.006], [0.0, 0.95]),
@@ -1416,8 +1464,26 @@ mod tests {
         off.params.load_gate_m = 0.0;
         off.read_lag_from_load(10.0);
         for t in [swinging, unread, off] {
+            assert_eq!(t.felt_across, None);
             assert_eq!(t.filter.expect("seeded").lag_m(), prior);
         }
+    }
+
+    /// A sliding fix is placed where the load's smoothed offset across the motion moves it:
+    /// the same fix, 1 mm further along +z.
+    #[test]
+    fn a_sliding_fix_is_moved_by_the_loads_offset_across_the_motion() {
+        let place = |across: Option<[f64; 2]>| {
+            let mut t = with_pulse(0.08);
+            t.felt_across = across;
+            t.accept(&fix(0.0), false).expect("a clear fix on the path")
+        };
+        let (plain, moved) = (place(None), place(Some([0.0, 0.001])));
+        assert!(
+            (moved.z_m - plain.z_m - 0.001).abs() < 1e-9,
+            "{plain:?} {moved:?}"
+        );
+        assert!((moved.x_m - plain.x_m).abs() < 1e-9);
     }
 
     /// The default gate on `seeded()` (heading +x): the load's place for a point is the

@@ -132,25 +132,36 @@ impl BeatSlide {
         }
     }
 
-    /// While sliding, the arm's load reads the sensor's lag behind the belief directly
-    /// ([`lag_read_by_load`]). The fixes alone hardly see the lag (moving along the artery
+    /// While sliding, the arm's load reads where the sensor is against the belief: along
+    /// the lag's direction that is the lag itself ([`lag_read_by_load`]), and across it the
+    /// rod's deflection that neither the tilt nor the lag model holds
+    /// ([`felt_across_motion`]). The fixes alone hardly see the lag (moving along the artery
     /// leaves it unobserved), and its prior is one rig's: a heavy instrument on a soft
     /// incision trails by 8-11 mm against the prior's 4.5, and its sensor then slid beside
-    /// the artery until it was lost.
+    /// the artery until it was lost. Across the motion the load puts the sensor 1 mm off the
+    /// models on the seed's bench and 6-10 mm under a heavy instrument; that part is smoothed
+    /// over windows (`FELT_ACROSS_WEIGHT`) and moves every fix ([`Self::accept`]).
     pub(super) fn read_lag_from_load(&mut self, from_s: f64) {
         if self.params.load_gate_m <= 0.0 {
             return;
         }
         let window = self.history.since(from_s);
-        let Some(lag) = window
-            .mean_felt_offset()
-            .and_then(|felt| lag_read_by_load(felt, window.mean_lag()))
+        let Some(felt) = window.mean_felt_offset() else {
+            return;
+        };
+        let u = window.mean_lag();
+        let (Some(lag), Some(across)) = (lag_read_by_load(felt, u), felt_across_motion(felt, u))
         else {
             return;
         };
         if let Some(f) = self.filter.as_mut() {
             f.measure_lag(lag, LOAD_LAG_SD_M);
         }
+        let w = FELT_ACROSS_WEIGHT;
+        self.felt_across = Some(match self.felt_across {
+            Some(a) => [a[0] + w * (across[0] - a[0]), a[1] + w * (across[1] - a[1])],
+            None => across,
+        });
     }
 
     /// A fix from the window's coherent spatial pattern, with no timing model: the
@@ -260,8 +271,14 @@ impl BeatSlide {
             return Err(Miss::Timing { late_s: fix.late_s });
         }
         let own_sd = self.fix_sd(k);
+        // Where the load puts the sensor across its motion, smoothed over windows: the rod's
+        // deflection that neither the tilt nor the lag model holds.
+        let at = match self.felt_across {
+            Some(a) => SurfacePoint::new(fix.point().x_m + a[0], fix.point().z_m + a[1]),
+            None => fix.point(),
+        };
         let observation = Observation {
-            point: fix.point(),
+            point: at,
             sd_m: own_sd.hypot(self.tissue.sd_m()),
             lag_dir: fix.lag_dir,
         };
@@ -361,4 +378,11 @@ pub(super) fn lag_read_by_load(felt: [f64; 2], u: [f64; 2]) -> Option<f64> {
     let n2 = u[0] * u[0] + u[1] * u[1];
     let lag = -(felt[0] * u[0] + felt[1] * u[1]) / n2;
     (n2 >= LOAD_LAG_MIN_DIRECTION.powi(2) && lag.is_finite()).then_some(lag)
+}
+
+/// The part of a window's mean felt offset across its mean lag direction `u` (what the lag
+/// does not explain); `None` under the same condition as [`lag_read_by_load`].
+pub(super) fn felt_across_motion(felt: [f64; 2], u: [f64; 2]) -> Option<[f64; 2]> {
+    let along = -lag_read_by_load(felt, u)?;
+    Some([felt[0] - along * u[0], felt[1] - along * u[1]])
 }
