@@ -1537,6 +1537,15 @@ mod tests {
         (located, t.last_fix)
     }
 
+    /// A clear fix taken on the path, then the same fix with its kernel fit changed by
+    /// `change` handed on.
+    fn reported_with_kernel(change: impl Fn(&mut KernelFit)) -> (usize, Option<SurfacePoint>) {
+        let f = fix(0.0);
+        let mut changed = f;
+        change(&mut changed.kernel);
+        reported_after(with_pulse(0.08), &f, &changed)
+    }
+
     /// A clear fix taken on the path, then the same fix centred on `element` handed on.
     fn reported_at(t: BeatSlide, element: f64) -> (usize, Option<SurfacePoint>) {
         let f = fix(0.0);
@@ -1585,12 +1594,7 @@ mod tests {
 
     #[test]
     fn a_sliding_fix_whose_fit_cannot_vouch_for_2_mm_steers_but_is_not_reported() {
-        let run = |se_m: f64| {
-            let f = fix(0.0);
-            let mut loose = f;
-            loose.kernel.offset_se_m = se_m;
-            reported_after(with_pulse(0.08), &f, &loose)
-        };
+        let run = |se_m: f64| reported_with_kernel(|k| k.offset_se_m = se_m);
         // 3 SE within 2 mm: an SE of 2/3 mm is the edge.
         let (vouched, last) = run(0.0006);
         assert_eq!(vouched, 1);
@@ -1603,12 +1607,7 @@ mod tests {
 
     #[test]
     fn a_sliding_fix_no_one_kernel_fits_steers_but_is_not_reported() {
-        let run = |chi2: f64| {
-            let f = fix(0.0);
-            let mut smeared = f;
-            smeared.kernel.chi2 = chi2;
-            reported_after(with_pulse(0.08), &f, &smeared)
-        };
+        let run = |chi2: f64| reported_with_kernel(|k| k.chi2 = chi2);
         // Ten trusted elements, four parameters: 22.46 is chi-square(6)'s 99.9 % point.
         let (fits, last) = run(21.5);
         assert_eq!(fits, 1);
