@@ -272,7 +272,7 @@ const MAX_TISSUE_SD_M: f64 = 0.002;
 const SMEAR_SD_M: f64 = 0.0005;
 /// The last frames before the track starts (at rest on the last placement) over which
 /// the load reads the lag, s.
-const REST_LAG_WINDOW_S: f64 = 1.0;
+const REST_LOAD_WINDOW_S: f64 = 1.0;
 /// A point more than this from the artery is a false point (issue 13's rule), m.
 const FALSE_POINT_M: f64 = 0.002;
 /// Standard errors of its own fit within which a point must lie inside `FALSE_POINT_M` to
@@ -1049,7 +1049,7 @@ impl Tracker for BeatSlide {
         // deflection along that approach: the load reads it before the first slide.
         self.felt_across = None;
         if let Some(t) = self.history.newest_t_s() {
-            self.read_lag_from_load(t - REST_LAG_WINDOW_S);
+            self.read_deflection_from_load(t - REST_LOAD_WINDOW_S);
         }
         self.tissue.clear();
         self.limit = limit;
@@ -1389,7 +1389,18 @@ mod tests {
     /// (`None`: no reading).
     fn sliding_with_load(frames: usize, u: [f64; 2], felt: Option<[f64; 2]>) -> BeatSlide {
         let mut t = seeded();
-        for i in 0..frames {
+        push_sliding(&mut t, 0..frames, u, felt);
+        t
+    }
+
+    /// Frames `range` of that slide (frame `i` at 10 s + 10 ms·i) pushed onto `t`.
+    fn push_sliding(
+        t: &mut BeatSlide,
+        range: std::ops::Range<usize>,
+        u: [f64; 2],
+        felt: Option<[f64; 2]>,
+    ) {
+        for i in range {
             let t_s = 10.0 + 0.01 * i as f64;
             let sensor = SurfacePoint::new(0.005 + 0.0001 * i as f64, 0.0);
             let loaded = felt.map(|f| SurfacePoint::new(sensor.x_m + f[0], sensor.z_m + f[1]));
@@ -1400,7 +1411,6 @@ mod tests {
             };
             t.history.push(frame, sensor, u, loaded);
         }
-        t
     }
 
     #[test]
@@ -1409,7 +1419,7 @@ mod tests {
         // 4.5: one window read by the load moves the lag most of the way.
         let prior = seeded().filter.expect("seeded").lag_m();
         let mut t = sliding_with_load(100, [1.0, 0.0], Some([-0.009, 0.0003]));
-        t.read_lag_from_load(10.0);
+        t.read_deflection_from_load(10.0);
         let lag = t.filter.expect("seeded").lag_m();
         assert!((prior - 0.0045).abs() < 1e-9, "{prior}");
         assert!(lag > 0.0075 && lag < 0.009, "{lag}");
@@ -1420,18 +1430,8 @@ mod tests {
             across[0].abs() < 1e-12 && (across[1] - 0.0003).abs() < 1e-12,
             "{across:?}"
         );
-        for i in 100..200 {
-            let t_s = 10.0 + 0.01 * i as f64;
-            let sensor = SurfacePoint::new(0.005 + 0.0001 * i as f64, 0.0);
-            let loaded = SurfacePoint::new(sensor.x_m - 0.009, sensor.z_m + 0.0013);
-            let frame = crate::types::TactileFrame {
-                t_s,
-                seq: i as u64,
-                force_n: [0.0; crate::types::ELEMENTS],
-            };
-            t.history.push(frame, sensor, [1.0, 0.0], Some(loaded));
-        }
-        t.read_lag_from_load(11.0);
+        push_sliding(&mut t, 100..200, [1.0, 0.0], Some([-0.009, 0.0013]));
+        t.read_deflection_from_load(11.0);
         let across = t.felt_across.expect("read");
         let expected = 0.0003 + FELT_ACROSS_WEIGHT * (0.0013 - 0.0003);
         assert!((across[1] - expected).abs() < 1e-12, "{across:?}");
@@ -1457,12 +1457,12 @@ mod tests {
         assert_eq!(sliding::lag_read_by_load([-0.009, 0.0], [0.85, 0.0]), None);
         assert_eq!(sliding::lag_read_by_load([-0.009, 0.0], [0.0, 0.0]), None);
         let mut swinging = sliding_with_load(100, [0.6, 0.6], Some([-0.009, 0.0]));
-        swinging.read_lag_from_load(10.0);
+        swinging.read_deflection_from_load(10.0);
         let mut unread = sliding_with_load(100, [1.0, 0.0], None);
-        unread.read_lag_from_load(10.0);
+        unread.read_deflection_from_load(10.0);
         let mut off = sliding_with_load(100, [1.0, 0.0], Some([-0.009, 0.0]));
         off.params.load_gate_m = 0.0;
-        off.read_lag_from_load(10.0);
+        off.read_deflection_from_load(10.0);
         for t in [swinging, unread, off] {
             assert_eq!(t.felt_across, None);
             assert_eq!(t.filter.expect("seeded").lag_m(), prior);

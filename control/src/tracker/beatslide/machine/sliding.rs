@@ -93,7 +93,7 @@ impl BeatSlide {
         if t - from + 1e-9 < len_s || !self.events.has_room_for(EVENTS_PER_ANALYSIS) {
             return;
         }
-        self.read_lag_from_load(from);
+        self.read_deflection_from_load(from);
         let timed = self.analyse(from).map_err(Miss::from).and_then(|fix| {
             let point = self.accept(&fix, false)?;
             Ok((fix, point))
@@ -141,7 +141,7 @@ impl BeatSlide {
     /// the artery until it was lost. Across the motion the load puts the sensor 1 mm off the
     /// models on the seed's bench and 6-10 mm under a heavy instrument; that part is smoothed
     /// over windows (`FELT_ACROSS_WEIGHT`) and moves every fix ([`Self::accept`]).
-    pub(super) fn read_lag_from_load(&mut self, from_s: f64) {
+    pub(super) fn read_deflection_from_load(&mut self, from_s: f64) {
         if self.params.load_gate_m <= 0.0 {
             return;
         }
