@@ -51,6 +51,12 @@ pub struct BeatFix {
 }
 
 impl BeatFix {
+    /// Was the window timed against the beat clock? An untimed fix (`machine/sliding.rs`,
+    /// from the window's coherent spatial pattern) carries no waveform.
+    pub fn is_timed(&self) -> bool {
+        self.aligned.norm() > 0.0
+    }
+
     /// The artery point in believed coordinates: the believed sensor centre plus the
     /// artery's offset on the array (the sensor's lag not removed).
     pub fn point(&self) -> SurfacePoint {

@@ -1220,8 +1220,15 @@ mod tests {
             lag_dir: [1.0, 0.0],
             felt_offset: None,
             noise_sd_n: 0.01,
-            aligned: Waveform::zeros(),
+            aligned: timed_waveform(),
         }
+    }
+
+    /// A timed window's beat: the first harmonic alone.
+    fn timed_waveform() -> Waveform {
+        let mut w = Waveform::zeros();
+        w[1] = 1.0;
+        w
     }
 
     #[test]
@@ -1631,6 +1638,21 @@ mod tests {
         assert_eq!(last_spanned, last, "but it steers the track as before");
         // Its SNR came from two windows' beats: per beat it counts for less.
         assert!(snr_spanned < snr, "{snr_spanned:?} vs {snr:?}");
+    }
+
+    #[test]
+    fn an_untimed_sliding_fix_steers_but_is_not_reported() {
+        let timed = fix(0.0);
+        let mut untimed = timed;
+        untimed.aligned = Waveform::zeros();
+        assert!(timed.is_timed() && !untimed.is_timed());
+        let (reported, last) = reported_after(with_pulse(0.08), &timed, &timed);
+        let (reported_untimed, last_untimed) = reported_after(with_pulse(0.08), &timed, &untimed);
+        assert_eq!((reported, reported_untimed), (1, 0));
+        assert_eq!(
+            last_untimed, last,
+            "it steers the track as a timed one does"
+        );
     }
 
     #[test]

@@ -339,6 +339,12 @@ impl BeatSlide {
 
     /// `spans_miss`: the fix's window also holds a missed one; it steers the track but is
     /// not reported (the sensor moved between the two, and one of them held no clear beat).
+    /// An untimed fix steers but is not reported either: nothing but its spatial pattern
+    /// says it is this artery's pulse, and beside a pulsating lump under a weak pulse two
+    /// such points lay 6-7 mm off the artery (seed-bench-mixed, fresh seeds). On 150 fresh
+    /// seed-bench-mixed draws (seeds 7001 and 5001) reporting them gave 9 and 11 points more
+    /// than 2 mm off, the farthest 9.9 and 8.4 mm; not reporting them, 5 and 6, the farthest
+    /// 4.3 and 3.0 mm, for 13-16 % fewer points there (1.6 % over all families).
     pub(super) fn after_fix(
         &mut self,
         fix: &BeatFix,
@@ -357,7 +363,7 @@ impl BeatSlide {
         let disputed = self
             .load_disagrees(fix.point(), point, fix.felt_offset)
             .is_some();
-        if !self.smeared(self.window_len_s()) && !disputed && !spans_miss {
+        if !self.smeared(self.window_len_s()) && !disputed && !spans_miss && fix.is_timed() {
             self.report(located, &fix.kernel);
         }
         self.spatial = SpatialPrior {
@@ -369,7 +375,7 @@ impl BeatSlide {
             let confidence = (fix.kernel.snr() / self.params.target_snr).powi(2).min(1.0);
             p.clock.correct(fix.t_mid_s, fix.late_s, confidence);
             p.late_rms_s = (0.8 * p.late_rms_s.powi(2) + 0.2 * fix.late_s.powi(2)).sqrt();
-            if fix.aligned.norm() > 0.0 {
+            if fix.is_timed() {
                 // Timed fixes only: an untimed one's amplitude is a swing, not a peak.
                 p.amplitude_n = 0.8 * p.amplitude_n + 0.2 * fix.kernel.amplitude * p.template_pp;
             }
