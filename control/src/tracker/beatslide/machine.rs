@@ -393,14 +393,18 @@ impl BeatSlide {
     /// felt smeared, the artery moving under the beat, or from its edge). Such a fix
     /// steers, unreported. (A mark's point is its result and is always reported, with its
     /// SD.)
-    fn report(&mut self, located: LocatedPoint, fit: &KernelFit) {
+    ///
+    /// `sweep_elements`: how far the artery moved across the array within the fix's window,
+    /// in elements (0 at rest).
+    fn report(&mut self, located: LocatedPoint, fit: &KernelFit, sweep_elements: f64) {
         if !self.fits_one_artery(fit) || !vouched_within_false_point(fit) {
             return;
         }
-        // Under moving tissue the artery moves by about the motion's SD within a window: a
-        // centre that close to the outer elements may have been beyond them for part of it,
-        // felt by one flank.
-        let margin = EDGE_MOTION_SDS * self.tissue.sd_m() / self.geometry.pitch_m;
+        // Under moving tissue the artery moves by about the motion's SD within a window, and
+        // while sliding across a bend by its sweep: a centre within half of that of the outer
+        // elements may have been beyond them for part of the window, felt by one flank.
+        let margin = (EDGE_MOTION_SDS * self.tissue.sd_m() / self.geometry.pitch_m)
+            .max(0.5 * sweep_elements);
         let last = (crate::types::ELEMENTS - 1) as f64 - margin;
         // Against the usual amplitude or the last fix's, the lower: a pulse fading along
         // the artery (an occlusion) fades fix by fix and stays reported; a beat felt
@@ -1563,10 +1567,22 @@ mod tests {
     }
 
     /// A clear fix taken on the path, then the same fix centred on `element` handed on.
+    /// The artery held still on the array since the last fix (no sweep).
     fn reported_at(t: BeatSlide, element: f64) -> (usize, Option<SurfacePoint>) {
+        reported_swept(t, element, element)
+    }
+
+    /// A clear fix taken on the path, then the same fix centred on `element` handed on, the
+    /// last fix's centre having been `previous_element`.
+    fn reported_swept(
+        mut t: BeatSlide,
+        previous_element: f64,
+        element: f64,
+    ) -> (usize, Option<SurfacePoint>) {
         let f = fix(0.0);
         let mut at = f;
         at.kernel.element = element;
+        t.spatial.element = previous_element;
         reported_after(t, &f, &at)
     }
 
@@ -1638,6 +1654,26 @@ mod tests {
         assert_eq!(last_spanned, last, "but it steers the track as before");
         // Its SNR came from two windows' beats: per beat it counts for less.
         assert!(snr_spanned < snr, "{snr_spanned:?} vs {snr:?}");
+    }
+
+    /// Sliding across a bend the artery sweeps across the array within a window: a centre
+    /// within half that sweep of the outer element may have been beyond it for part of the
+    /// window. The same place is reported when the artery held still on the array.
+    #[test]
+    fn a_fix_that_swept_to_the_arrays_end_steers_but_is_not_reported() {
+        let run = |previous_element: f64| reported_swept(with_pulse(0.08), previous_element, 0.6);
+        let (held, last) = run(0.8);
+        let (swept, last_swept) = run(2.0);
+        assert_eq!(
+            (held, swept),
+            (1, 0),
+            "1.4 elements of sweep: 0.7 of margin"
+        );
+        assert_eq!(last_swept, last, "it steers the track as before");
+        // The other end alike, and a sweep that stays clear of the end is reported.
+        assert_eq!(reported_swept(with_pulse(0.08), 7.0, 8.4).0, 0);
+        assert_eq!(reported_swept(with_pulse(0.08), 8.0, 8.4).0, 1);
+        assert_eq!(reported_swept(with_pulse(0.08), 2.0, 4.5).0, 1);
     }
 
     #[test]

@@ -167,7 +167,7 @@ impl BeatSlide {
         if !self.smeared(t - since)
             && let Some(located) = self.at_rest_reported(since, t, located, &fit, observation.point)
         {
-            self.report(located, &fit);
+            self.report(located, &fit, 0.0);
         }
         if self.length_reached() {
             self.finish(EndReason::LengthReached, t);

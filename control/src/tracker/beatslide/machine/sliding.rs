@@ -364,7 +364,14 @@ impl BeatSlide {
             .load_disagrees(fix.point(), point, fix.felt_offset)
             .is_some();
         if !self.smeared(self.window_len_s()) && !disputed && !spans_miss && fix.is_timed() {
-            self.report(located, &fix.kernel);
+            // The artery's place on the array moved from the last fix's to this one's over
+            // about a window (more, after a miss: a wider margin then, on the safe side).
+            let sweep = (fix.kernel.element - self.spatial.element).abs();
+            self.report(
+                located,
+                &fix.kernel,
+                if sweep.is_finite() { sweep } else { 0.0 },
+            );
         }
         self.spatial = SpatialPrior {
             element: fix.kernel.element,
