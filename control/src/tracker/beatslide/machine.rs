@@ -1677,18 +1677,29 @@ mod tests {
     }
 
     #[test]
-    fn an_untimed_sliding_fix_steers_but_is_not_reported() {
+    fn a_regular_hearts_untimed_sliding_fix_steers_but_is_not_reported() {
         let timed = fix(0.0);
         let mut untimed = timed;
         untimed.aligned = Waveform::zeros();
         assert!(timed.is_timed() && !untimed.is_timed());
-        let (reported, last) = reported_after(with_pulse(0.08), &timed, &timed);
-        let (reported_untimed, last_untimed) = reported_after(with_pulse(0.08), &timed, &untimed);
+        // `with_pulse`'s period is 1 s; lateness RMS at a fiftieth of it, then a tenth.
+        let with_lateness = |late_rms_s: f64| {
+            let mut t = with_pulse(0.08);
+            if let Some(p) = &mut t.pulse {
+                p.late_rms_s = late_rms_s;
+            }
+            t
+        };
+        let (reported, last) = reported_after(with_lateness(0.02), &timed, &timed);
+        let (reported_untimed, last_untimed) =
+            reported_after(with_lateness(0.02), &timed, &untimed);
         assert_eq!((reported, reported_untimed), (1, 0));
         assert_eq!(
             last_untimed, last,
             "it steers the track as a timed one does"
         );
+        // An irregular heart's is reported: its beats explain a window the clock missed.
+        assert_eq!(reported_after(with_lateness(0.1), &timed, &untimed).0, 1);
     }
 
     #[test]

@@ -339,12 +339,15 @@ impl BeatSlide {
 
     /// `spans_miss`: the fix's window also holds a missed one; it steers the track but is
     /// not reported (the sensor moved between the two, and one of them held no clear beat).
-    /// An untimed fix steers but is not reported either: nothing but its spatial pattern
-    /// says it is this artery's pulse, and beside a pulsating lump under a weak pulse two
-    /// such points lay 6-7 mm off the artery (seed-bench-mixed, fresh seeds). On 150 fresh
-    /// seed-bench-mixed draws (seeds 7001 and 5001) reporting them gave 9 and 11 points more
-    /// than 2 mm off, the farthest 9.9 and 8.4 mm; not reporting them, 5 and 6, the farthest
-    /// 4.3 and 3.0 mm, for 13-16 % fewer points there (1.6 % over all families).
+    /// An untimed fix of a regular heart steers but is not reported either: that the clock
+    /// could not time its window says the window holds no beat when this heart beats, and
+    /// nothing but its spatial pattern says it is this artery's pulse. Beside a pulsating
+    /// lump under a weak pulse two such points lay 6-7 mm off the artery (seed-bench-mixed,
+    /// fresh seeds). An irregular heart explains a window the clock could not time: there it
+    /// is reported. On 150 fresh seed-bench-mixed draws (seeds 7001 and 5001) reporting
+    /// every untimed fix gave 9 and 11 points more than 2 mm off, the farthest 9.9 and 8.4 mm;
+    /// this rule, 5 and 6, the farthest 4.3 and 3.0 mm, for 6 % fewer points there (none,
+    /// 13-16 % fewer, took no more off points away).
     pub(super) fn after_fix(
         &mut self,
         fix: &BeatFix,
@@ -363,7 +366,11 @@ impl BeatSlide {
         let disputed = self
             .load_disagrees(fix.point(), point, fix.felt_offset)
             .is_some();
-        if !self.smeared(self.window_len_s()) && !disputed && !spans_miss && fix.is_timed() {
+        if !self.smeared(self.window_len_s())
+            && !disputed
+            && !spans_miss
+            && (fix.is_timed() || self.heart_irregular())
+        {
             // The artery's place on the array moved from the last fix's to this one's over
             // about a window (more, after a miss: a wider margin then, on the safe side).
             let sweep = (fix.kernel.element - self.spatial.element).abs();
