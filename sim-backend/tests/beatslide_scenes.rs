@@ -105,9 +105,11 @@ fn tight_arc_20_fails_without_wandering() {
 
 #[test]
 fn tight_arc_30() {
-    // Its track is 6 cm: seeds 1-7 report 4 or 5 points. Seed 1's first mark waits 2 s more
-    // since a mark must know its pulse's sign (docs/BENCHMARKS.md), and then reports 4.
-    assert_tracks_with("tight-arc-30", 1.0e-3, 60.0, 4);
+    // Its track is 6 cm: seeds 1-7 report 3 or 4 points. Seed 1's first mark waits 2 s more
+    // since a mark must know its pulse's sign (docs/BENCHMARKS.md), and then reports 3: on an
+    // arc this tight the artery sweeps across the array between fixes, and a fix within half
+    // that sweep of the array's end is not reported (it steers).
+    assert_tracks_with("tight-arc-30", 1.0e-3, 60.0, 3);
 }
 
 #[test]
