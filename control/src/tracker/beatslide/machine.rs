@@ -1545,16 +1545,28 @@ mod tests {
     /// `accepted` taken on the path, then `after` (the same fix, or one changed after the
     /// gate) handed on: the points reported, and where the track then is.
     fn reported_after(
-        mut t: BeatSlide,
+        t: BeatSlide,
         accepted: &BeatFix,
         after: &BeatFix,
     ) -> (usize, Option<SurfacePoint>) {
+        let (located, t) = handed_on(t, accepted, after, false);
+        (located, t.last_fix)
+    }
+
+    /// As [`reported_after`], `spans_miss` as the slide's window says: the points reported,
+    /// and the tracker after.
+    fn handed_on(
+        mut t: BeatSlide,
+        accepted: &BeatFix,
+        after: &BeatFix,
+        spans_miss: bool,
+    ) -> (usize, BeatSlide) {
         let point = t.accept(accepted, false).expect("a clear fix on the path");
-        t.after_fix(after, point, accepted.sensor, 10.0, false);
+        t.after_fix(after, point, accepted.sensor, 10.0, spans_miss);
         let located = std::iter::from_fn(|| t.events.pop())
             .filter(|e| matches!(e, TrackerEvent::Located(_)))
             .count();
-        (located, t.last_fix)
+        (located, t)
     }
 
     /// A clear fix taken on the path, then the same fix with its kernel fit changed by
@@ -1635,13 +1647,8 @@ mod tests {
     #[test]
     fn a_fix_spanning_a_missed_window_steers_but_is_not_reported() {
         let run = |spans_miss: bool| {
-            let mut t = with_pulse(0.08);
             let f = fix(0.0);
-            let point = t.accept(&f, false).expect("a clear fix on the path");
-            t.after_fix(&f, point, f.sensor, 10.0, spans_miss);
-            let located = std::iter::from_fn(|| t.events.pop())
-                .filter(|e| matches!(e, TrackerEvent::Located(_)))
-                .count();
+            let (located, t) = handed_on(with_pulse(0.08), &f, &f, spans_miss);
             (located, t.last_fix, t.pulse.map(|p| p.snr_per_beat))
         };
         let (reported, last, snr) = run(false);
