@@ -14,11 +14,13 @@
 //! docs/tracker-beatslide.md describes every rule.
 
 mod lost;
+mod replacing;
 mod rest_beats;
 mod rest_search;
 mod seating;
 mod sliding;
 
+use replacing::Replaced;
 use seating::{SeatedMark, SideMark, Stroke};
 
 use super::beat_fix::{BeatFix, BeatMiss, SpatialPrior, analyse_window};
@@ -157,6 +159,13 @@ enum State {
         plan: Option<Stroke>,
         frames: u64,
     },
+    /// Moving onto an artery a mark felt beyond the array's end (`machine/replacing.rs`),
+    /// since `since_s`; `target` is where the sensor should be.
+    Replacing {
+        target: SurfacePoint,
+        since_s: f64,
+        frames: u64,
+    },
     /// Acquiring at a manual placement since `since_s` (None until the sensor is at rest);
     /// analysed once `window_s` is full.
     Marking {
@@ -191,6 +200,17 @@ enum State {
         attempt: usize,
     },
     Finished(EndReason),
+}
+
+/// What a mark makes: the seed the path filter sees, the seed point, where the surgeon
+/// placed the sensor for it (the direction between placements is the one to follow), and
+/// the point reported.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct MarkOutcome {
+    observation: Observation,
+    point: SurfacePoint,
+    placement: SurfacePoint,
+    located: LocatedPoint,
 }
 
 /// The pulse as known so far.
@@ -230,6 +250,9 @@ pub struct BeatSlide {
     /// the first side while the second is made (`machine/seating.rs`).
     seat_home: Option<SurfacePoint>,
     first_side: Option<SideMark>,
+    /// This mark's outcome at its placement while it moves onto an artery felt beyond the
+    /// array's end and marks again (`machine/replacing.rs`).
+    replaced: Option<Replaced>,
     filter: Option<PathFilter>,
     /// The artery's motion across its course that the path model does not explain.
     tissue: TissueMotion,
@@ -329,6 +352,7 @@ impl BeatSlide {
             seed_points: Vec::with_capacity(MAX_SEEDS),
             seed_sensors: Vec::with_capacity(MAX_SEEDS),
             seat_home: None,
+            replaced: None,
             first_side: None,
             filter: None,
             tissue: TissueMotion::new(MAX_TISSUE_SD_M),
@@ -697,70 +721,25 @@ impl BeatSlide {
         });
         match searched {
             Ok((found, fit, sensor)) => {
-                self.learn_pulse(&found, &fit, t - since, t);
-                let lag_dir = self.history.since(since).mean_lag();
-                let raw = SurfacePoint::new(sensor.x_m, sensor.z_m + fit.offset_z_m);
-                let side = SideMark {
-                    raw,
-                    sd_m: self.fix_sd(&fit),
+                let replaced = self.replaced.take();
+                let Some(outcome) = self.mark_outcome(&found, &fit, sensor, since, t) else {
+                    return;
                 };
-                let (raw, side_sd) = match self.seated_mark(side, t) {
-                    SeatedMark::OtherSide => return,
-                    SeatedMark::Both { raw, sd_m } => (raw, Some(sd_m)),
-                    SeatedMark::NotSeated => (raw, None),
-                };
-                // Where the sensor trailed before this mark is unknown until the robot has
-                // been seen to move: that part of the lag is uncertainty.
-                let known = lag_dir[0].hypot(lag_dir[1]).min(1.0);
-                // A mark made from both sides has no lag left in it.
-                let (lag_dir, known) = if side_sd.is_some() {
-                    ([0.0, 0.0], 1.0)
-                } else {
-                    (lag_dir, known)
-                };
-                let observation = Observation {
-                    point: raw,
-                    sd_m: side_sd
-                        .unwrap_or_else(|| self.fix_sd(&fit))
-                        .hypot(self.params.lag_prior_m * (1.0 - known)),
-                    lag_dir,
-                };
-                let lag = self.params.lag_prior_m;
-                let point =
-                    SurfacePoint::new(raw.x_m - lag * lag_dir[0], raw.z_m - lag * lag_dir[1]);
-                let mut sd_m = self.point_sd(observation.sd_m, lag_dir);
-                // Reported where the arm's load puts it, if read. A mark from both sides is
-                // two windows and has no lag left in it: it stays as it is.
-                let placed = self.placed_at_rest(since, raw, sensor);
-                let (reported, at) = match placed.filter(|_| side_sd.is_none()) {
-                    Some(placed) => {
-                        sd_m = self.fix_sd(&fit);
-                        placed
+                match replaced {
+                    // After a move onto the artery: the new mark, unless it found the artery
+                    // on the array's far half (`machine/replacing.rs`).
+                    Some(first) if fit.offset_z_m * first.side < 0.0 => {
+                        self.accept_mark(first.outcome)
                     }
-                    None => (point, sensor),
-                };
-                let located = self.located(0.5 * (since + t), reported, at, &fit, true, sd_m);
-                // Under moving tissue the window's average is no moment's place: report
-                // the beats' (`machine/rest_beats.rs`). A mark from both sides stays. The
-                // mark must answer (the runner and the daemon wait for its result), so
-                // where the beats give no place the window's is reported, as on still
-                // tissue; so is a place beyond the array's end, with its SD (`report`).
-                let located = match side_sd {
-                    Some(_) => located,
-                    None => self
-                        .at_rest_reported(since, t, located, &fit, raw)
-                        .unwrap_or(located),
-                };
-                if self.seeds.len() == MAX_SEEDS {
-                    self.seeds.remove(0);
-                    self.seed_points.remove(0);
-                    self.seed_sensors.remove(0);
+                    Some(first) => self.accept_mark(MarkOutcome {
+                        placement: first.outcome.placement,
+                        ..outcome
+                    }),
+                    None if self.should_replace(&fit) => {
+                        self.begin_replacing(outcome, &fit, sensor, t)
+                    }
+                    None => self.accept_mark(outcome),
                 }
-                self.seeds.push(observation);
-                self.seed_points.push(point);
-                self.seed_sensors.push(sensor);
-                self.emit(TrackerEvent::Located(located));
-                self.state = State::Seeding;
             }
             Err(why) => {
                 self.last_miss = Some(why);
@@ -770,6 +749,9 @@ impl BeatSlide {
                         since_s: Some(since),
                         window_s: window_s + self.params.mark_extend_s,
                     };
+                } else if let Some(first) = self.replaced.take() {
+                    // Nothing after a move onto the artery: the placement's mark stands.
+                    self.accept_mark(first.outcome);
                 } else {
                     let at = self
                         .history
@@ -783,6 +765,92 @@ impl BeatSlide {
         }
     }
 
+    /// What a mark found in its window from `since` to `t`, as the seed it makes and the
+    /// point it reports; `None` when it was the first side of a seated mark (the other
+    /// side's stroke has begun).
+    fn mark_outcome(
+        &mut self,
+        found: &PulseFound,
+        fit: &KernelFit,
+        sensor: SurfacePoint,
+        since: f64,
+        t: f64,
+    ) -> Option<MarkOutcome> {
+        self.learn_pulse(found, fit, t - since, t);
+        let lag_dir = self.history.since(since).mean_lag();
+        let raw = SurfacePoint::new(sensor.x_m, sensor.z_m + fit.offset_z_m);
+        let side = SideMark {
+            raw,
+            sd_m: self.fix_sd(fit),
+        };
+        let (raw, side_sd) = match self.seated_mark(side, t) {
+            SeatedMark::OtherSide => return None,
+            SeatedMark::Both { raw, sd_m } => (raw, Some(sd_m)),
+            SeatedMark::NotSeated => (raw, None),
+        };
+        // Where the sensor trailed before this mark is unknown until the robot has been
+        // seen to move: that part of the lag is uncertainty.
+        let known = lag_dir[0].hypot(lag_dir[1]).min(1.0);
+        // A mark made from both sides has no lag left in it.
+        let (lag_dir, known) = if side_sd.is_some() {
+            ([0.0, 0.0], 1.0)
+        } else {
+            (lag_dir, known)
+        };
+        let observation = Observation {
+            point: raw,
+            sd_m: side_sd
+                .unwrap_or_else(|| self.fix_sd(fit))
+                .hypot(self.params.lag_prior_m * (1.0 - known)),
+            lag_dir,
+        };
+        let lag = self.params.lag_prior_m;
+        let point = SurfacePoint::new(raw.x_m - lag * lag_dir[0], raw.z_m - lag * lag_dir[1]);
+        let mut sd_m = self.point_sd(observation.sd_m, lag_dir);
+        // Reported where the arm's load puts it, if read. A mark from both sides is two
+        // windows and has no lag left in it: it stays as it is.
+        let placed = self.placed_at_rest(since, raw, sensor);
+        let (reported, at) = match placed.filter(|_| side_sd.is_none()) {
+            Some(placed) => {
+                sd_m = self.fix_sd(fit);
+                placed
+            }
+            None => (point, sensor),
+        };
+        let located = self.located(0.5 * (since + t), reported, at, fit, true, sd_m);
+        // Under moving tissue the window's average is no moment's place: report the beats'
+        // (`machine/rest_beats.rs`). A mark from both sides stays. The mark must answer
+        // (the runner and the daemon wait for its result), so where the beats give no
+        // place the window's is reported, as on still tissue; so is a place beyond the
+        // array's end, with its SD (`report`).
+        let located = match side_sd {
+            Some(_) => located,
+            None => self
+                .at_rest_reported(since, t, located, fit, raw)
+                .unwrap_or(located),
+        };
+        Some(MarkOutcome {
+            observation,
+            point,
+            placement: sensor,
+            located,
+        })
+    }
+
+    /// Make a mark's outcome the next seed and report its point.
+    fn accept_mark(&mut self, outcome: MarkOutcome) {
+        if self.seeds.len() == MAX_SEEDS {
+            self.seeds.remove(0);
+            self.seed_points.remove(0);
+            self.seed_sensors.remove(0);
+        }
+        self.seeds.push(outcome.observation);
+        self.seed_points.push(outcome.point);
+        self.seed_sensors.push(outcome.placement);
+        self.emit(TrackerEvent::Located(outcome.located));
+        self.state = State::Seeding;
+    }
+
     fn motion(&self) -> MotionCommand {
         match self.state {
             State::Sliding {
@@ -792,6 +860,10 @@ impl BeatSlide {
                 speed_m_s,
             },
             State::Returning { target, .. } => MotionCommand::MoveTo {
+                target: self.belief_from_sensor(target),
+                speed_m_s: self.params.return_speed_m_s,
+            },
+            State::Replacing { target, .. } => MotionCommand::MoveTo {
                 target: self.belief_from_sensor(target),
                 speed_m_s: self.params.return_speed_m_s,
             },
@@ -985,7 +1057,9 @@ impl Tracker for BeatSlide {
             State::Seeding => TrackerPhase::Seeding {
                 seeds: self.seeds.len(),
             },
-            State::Marking { .. } | State::Seating { .. } => TrackerPhase::Marking,
+            State::Marking { .. } | State::Seating { .. } | State::Replacing { .. } => {
+                TrackerPhase::Marking
+            }
             State::Sliding { .. }
             | State::Stopping { .. }
             | State::Searching { .. }
@@ -999,6 +1073,7 @@ impl Tracker for BeatSlide {
             TrackerPhase::Seeding { .. } => {
                 self.first_side = None;
                 self.seat_home = None;
+                self.replaced = None;
                 if self.seeds.is_empty() && self.params.seat_stroke_m > 0.0 {
                     self.state = State::Seating {
                         plan: None,
@@ -1140,6 +1215,11 @@ impl Tracker for BeatSlide {
             State::Seeding | State::Finished(_) => {}
             State::Seating { plan, frames } => self.step_seating(input, plan, frames),
             State::Marking { since_s, window_s } => self.step_marking(input, since_s, window_s),
+            State::Replacing {
+                target,
+                since_s,
+                frames,
+            } => self.step_replacing(input, target, since_s, frames),
             State::Sliding { .. } => self.step_sliding(input),
             State::Stopping { frames, attempt } => self.step_stopping(input, frames, attempt),
             State::Searching { since_s, attempt } => self.step_searching(input, since_s, attempt),
