@@ -237,3 +237,32 @@ fn located_points_carry_an_uncertainty_that_covers_their_error() {
     // Conservative (the fix floor is a model-error allowance) but not uselessly so.
     assert!(rms > 0.1 && rms < 1.2, "RMS error / SD {rms:.2}: {z:?}");
 }
+
+// A stiffer rig must not be made worse by the compliance compensation tuned on the seed's
+// compliant bench (issue 13): the seed's 145 mm arc on a stiff and on a rigid rig
+// (config/scenes/rigs/), bounded as the compliant one is above.
+
+fn rig_scene(file: &str) -> TrialResult {
+    let (cname, text) = config::shipped::SIM_CONFIG;
+    let cfg = config::load_str(cname, text).expect("the shipped config loads");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../config/scenes/rigs")
+        .join(file);
+    let s = scene::load(&path.to_string_lossy(), None).expect("the rig scene loads");
+    run_trial(&s, &cfg, "beatslide", SEED).expect("the trial runs")
+}
+
+#[test]
+fn a_stiff_and_a_rigid_rig_are_tracked_as_well_as_the_seeds() {
+    for file in ["seed-arc-145-stiff.ron", "seed-arc-145-rigid.ron"] {
+        let t = rig_scene(file);
+        let why = summary(&t);
+        assert!(t.completed, "{file}: {why}");
+        assert!(t.lateral_error_m.points >= 5, "{file}: {why}");
+        // Today about +0.1 mm and 0.15 mm; when the issue was filed, -0.6 mm.
+        assert!(t.lateral_error_m.mean.abs() < 0.3e-3, "{file}: {why}");
+        assert!(t.lateral_error_m.sd < 0.5e-3, "{file}: {why}");
+        assert!(t.lateral_error_m.max < 2.0e-3, "{file}: {why}");
+        assert!(beats_per_26cm(&t) < 60.0, "{file}: {why}");
+    }
+}
