@@ -1236,6 +1236,19 @@ impl Tracker for BeatSlide {
     }
 }
 
+/// Deterministic noise for the tests: uniform over `span` (centred on zero), drawn from a
+/// 64-bit linear congruential generator seeded with `seed`.
+#[cfg(test)]
+fn test_noise(seed: u64, span: f64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * span
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -111,13 +111,7 @@ mod tests {
         let mut t = BeatSlide::new(params, geometry).expect("params");
         t.mark().expect("seeding");
         let (pitch, fs) = (geometry.pitch_m, geometry.sample_rate_hz);
-        let mut state = 99u64;
-        let mut noise = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.004
-        };
+        let mut noise = test_noise(99, 0.004);
         let mut sensor = SurfacePoint::new(0.0, 0.0);
         let mut moves = Vec::new();
         let mut settled = true;

@@ -183,13 +183,7 @@ mod tests {
             width_m: 0.005,
         };
         let (pitch, fs) = (geometry.pitch_m, geometry.sample_rate_hz);
-        let mut state = 12345u64;
-        let mut noise = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.004
-        };
+        let mut noise = test_noise(12345, 0.004);
         let per_beat = fs.round() as usize;
         for (b, &c) in centres.iter().enumerate() {
             for i in 0..per_beat {
