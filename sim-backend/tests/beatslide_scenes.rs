@@ -12,7 +12,7 @@ const SEED: u64 = 1;
 fn run(name: &str) -> (Scene, TrialResult) {
     let (cname, text) = config::shipped::SIM_CONFIG;
     let cfg = config::load_str(cname, text).expect("the shipped config loads");
-    let s = scene::load(name, None).expect("a shipped scene");
+    let s = scene::load(name, None).expect("a shipped scene or a scene file");
     let t = run_trial(&s, &cfg, "beatslide", SEED).expect("the trial runs");
     (s, t)
 }
@@ -243,13 +243,10 @@ fn located_points_carry_an_uncertainty_that_covers_their_error() {
 // (config/scenes/rigs/), bounded as the compliant one is above.
 
 fn rig_scene(file: &str) -> TrialResult {
-    let (cname, text) = config::shipped::SIM_CONFIG;
-    let cfg = config::load_str(cname, text).expect("the shipped config loads");
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../config/scenes/rigs")
         .join(file);
-    let s = scene::load(&path.to_string_lossy(), None).expect("the rig scene loads");
-    run_trial(&s, &cfg, "beatslide", SEED).expect("the trial runs")
+    run(&path.to_string_lossy()).1
 }
 
 #[test]
