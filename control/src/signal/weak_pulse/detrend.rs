@@ -13,6 +13,7 @@
 
 use crate::types::ELEMENTS;
 
+#[derive(Clone)]
 pub(super) struct Detrend {
     ring: Vec<[f64; ELEMENTS]>,
     times: Vec<f64>,

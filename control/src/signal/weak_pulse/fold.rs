@@ -11,6 +11,7 @@
 
 use crate::types::ELEMENTS;
 
+#[derive(Clone)]
 pub(super) struct Folds {
     rates_hz: Vec<f64>,
     bins: usize,

@@ -12,6 +12,7 @@
 use super::super::kernel_fit::element_kernel;
 use crate::types::ELEMENTS;
 
+#[derive(Clone)]
 pub(super) struct SpatialKernel {
     pub pitch_m: f64,
     pub width_m: f64,
@@ -43,6 +44,8 @@ pub(super) struct Placed {
     pub x_m: f64,
     pub se_m: f64,
     pub at_edge: bool,
+    /// The fitted amplitude `ĉ` (`a √E`).
+    pub amplitude: f64,
 }
 
 /// The best position in `[-half_range, half_range]` for `z`, or `None` if no positive
@@ -103,5 +106,6 @@ pub(super) fn place(
         x_m: x,
         se_m,
         at_edge,
+        amplitude,
     })
 }

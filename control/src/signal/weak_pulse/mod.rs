@@ -32,6 +32,7 @@ mod detrend;
 mod fold;
 mod locate;
 pub mod noise_law;
+mod noise_table;
 mod track;
 pub mod waveform;
 
@@ -96,7 +97,19 @@ impl Default for WeakPulseSettings {
     }
 }
 
+/// The false-alarm rates (over a window) the shipped threshold table holds.
+pub const TABLE_PFAS: [f64; 2] = [0.01, 0.05];
+
 impl WeakPulseSettings {
+    /// The settings of the shipped threshold table (`noise_table`): the defaults with a
+    /// 600 s limit (the longest window a mark may wait).
+    pub fn tabulated() -> Self {
+        Self {
+            limit_s: 600.0,
+            ..Self::default()
+        }
+    }
+
     fn check(&self) -> Result<(), WeakPulseError> {
         self.geometry.check().map_err(WeakPulseError::Geometry)?;
         let positive = |what: &'static str, v: f64| {
@@ -242,6 +255,9 @@ pub struct Found {
     pub beats: f64,
     /// The statistic at the decision, as an SNR (`√(2 ln Λ)`).
     pub snr: f64,
+    /// The pulse's peak-to-peak at the kernel's peak fitted along the track, N (the
+    /// template's shape assumed: a rough size, for comparing fixes of one artery).
+    pub amplitude_n: f64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -271,8 +287,10 @@ pub struct Progress {
 }
 
 /// The streaming detector.
+#[derive(Clone)]
 pub struct WeakPulseDetector {
     settings: WeakPulseSettings,
+    shape: PulseShape,
     threshold: f64,
     looks: usize,
     detrend: Detrend,
@@ -291,6 +309,8 @@ pub struct WeakPulseDetector {
     projected: Vec<f64>,
     decision: Option<Decision>,
     gaps: usize,
+    /// Weighing on after a "found" (`keep_weighing`).
+    weighing: bool,
 }
 
 impl std::fmt::Debug for WeakPulseDetector {
@@ -351,6 +371,7 @@ impl WeakPulseDetector {
             rate_step_probability: settings.rate_step_probability,
         });
         Ok(Self {
+            shape,
             detrend: Detrend::new((settings.detrend_s * fs).round() as usize),
             folds: Folds::new(rates, b, templates),
             track,
@@ -373,12 +394,27 @@ impl WeakPulseDetector {
             done: 0,
             decision: None,
             gaps: 0,
+            weighing: false,
         })
     }
 
     /// The decision, once made.
     pub fn decision(&self) -> Option<Decision> {
         self.decision
+    }
+
+    /// After a "found", go on weighing frames: each segment fits the place again (its SE
+    /// shrinking as the evidence grows) and reports it as the decision. For a caller that
+    /// needs the place more precisely than the crossing gave it. Does nothing before a
+    /// "found".
+    pub fn keep_weighing(&mut self) {
+        if matches!(self.decision, Some(Decision::Found(_))) {
+            self.weighing = true;
+        }
+    }
+
+    fn weighing_on(&self) -> bool {
+        self.weighing && matches!(self.decision, Some(Decision::Found(_)))
     }
 
     /// Gaps (over five frame intervals) seen so far; the detrending restarts after each.
@@ -389,7 +425,7 @@ impl WeakPulseDetector {
     /// Take one frame. Returns the progress at the end of each segment (every
     /// `segment_s`), `None` in between and after the decision.
     pub fn push(&mut self, frame: &TactileFrame) -> Result<Option<Progress>, WeakPulseError> {
-        if self.decision.is_some() {
+        if self.decision.is_some() && !self.weighing_on() {
             return Ok(None);
         }
         if !frame.is_finite() {
@@ -420,11 +456,11 @@ impl WeakPulseDetector {
         let t_rel = t - start;
         let segment = (t_rel / self.settings.segment_s).floor().max(0.0) as usize;
         let mut report = Ok(None);
-        while self.segment < segment && self.decision.is_none() {
+        while self.segment < segment && (self.decision.is_none() || self.weighing_on()) {
             report = self.finish_segment();
             self.segment += 1;
         }
-        if self.decision.is_none() {
+        if self.decision.is_none() || self.weighing_on() {
             self.folds.add(t_rel, &y);
         }
         report
@@ -487,7 +523,9 @@ impl WeakPulseDetector {
         let snr_needed = (2.0 * self.threshold.max(0.0)).sqrt();
         let beats_to_go = (snr > 0.0 && snr_needed.is_finite() && beats > 0.0)
             .then(|| (beats * ((snr_needed / snr).powi(2) - 1.0)).max(0.0));
-        if log_ratio > self.threshold {
+        // Found once the threshold is crossed; while weighing on after that, the place is
+        // fitted again at each segment along the track as it now stands.
+        if log_ratio > self.threshold || self.weighing_on() {
             let (path, _) = self.track.best_path(best);
             if path.energy > 0.0 {
                 let z: [f64; ELEMENTS] =
@@ -496,6 +534,8 @@ impl WeakPulseDetector {
                     locate::place(&self.kernel, &z, &inverse_sd, self.settings.half_range_m())
                 {
                     let g = &self.settings.geometry;
+                    let amplitude_n = placed.amplitude / path.energy.sqrt()
+                        * waveform::peak_to_peak_per_rms(&self.shape, rate_hz).unwrap_or(f64::NAN);
                     let middle = (ELEMENTS as f64 - 1.0) / 2.0;
                     self.decision = Some(Decision::Found(Found {
                         offset_z_m: g.direction * placed.x_m,
@@ -506,6 +546,7 @@ impl WeakPulseDetector {
                         elapsed_s,
                         beats,
                         snr,
+                        amplitude_n,
                     }));
                 }
             }

@@ -37,6 +37,7 @@ pub(super) struct PathSums {
     pub elements: [f64; ELEMENTS],
 }
 
+#[derive(Clone)]
 pub(super) struct TrackSettings {
     pub rates_hz: Vec<f64>,
     pub bins: usize,
@@ -48,6 +49,7 @@ pub(super) struct TrackSettings {
     pub rate_step_probability: f64,
 }
 
+#[derive(Clone)]
 pub(super) struct Track {
     rates: Vec<f64>,
     bins: usize,

@@ -59,6 +59,18 @@ pub(super) fn bin_templates(shape: &PulseShape, rates_hz: &[f64], bins: usize) -
     Some(out)
 }
 
+/// The shape's peak-to-peak over its RMS at `rate_hz` (to turn a fitted RMS amplitude into
+/// the peak-to-peak a clinician reads); `None` for a flat shape.
+pub(super) fn peak_to_peak_per_rms(shape: &PulseShape, rate_hz: f64) -> Option<f64> {
+    let t = bin_templates(shape, &[rate_hz], 64)?;
+    let (lo, hi) = t
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    (hi > lo).then_some(hi - lo)
+}
+
 /// Periodic linear interpolation of one beat sampled evenly in phase.
 fn interpolate(w: &[f64], phase: f64) -> f64 {
     let n = w.len();
