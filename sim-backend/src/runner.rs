@@ -30,8 +30,9 @@ use crate::trial::{LocatedSample, TrialResult};
 use crate::trial_event::{EventKind, TrialEvent};
 
 /// Simulated time allowed for the whole trial before it is stopped as `timeout`, s. The seed
-/// took about two minutes per 26 cm track.
-pub const TRIAL_TIME_LIMIT_S: f64 = 1200.0;
+/// took about two minutes per 26 cm track; `beatslide` on a weak artery listens a minute or
+/// more at each 5 mm stop (docs/tracker-beatslide.md), about an hour per 24 cm.
+pub const TRIAL_TIME_LIMIT_S: f64 = 3.0 * 3600.0;
 
 /// Manual marks tried at one placement before giving up (a surgeon would try again).
 const MARK_ATTEMPTS: usize = 3;
@@ -593,7 +594,9 @@ impl Lockstep {
                 }
                 TrackerEvent::Backtracking { .. } => self.backtracks += 1,
                 TrackerEvent::Missed { .. } => self.misses += 1,
-                TrackerEvent::Pulse { .. } | TrackerEvent::Finished { .. } => {}
+                TrackerEvent::Pulse { .. }
+                | TrackerEvent::Finished { .. }
+                | TrackerEvent::Listening(_) => {}
             }
         }
         Ok(out.event)

@@ -54,6 +54,17 @@ pub enum EventKind {
     Pulse { event_t_s: f64, period_s: f64 },
     /// Tracking ended.
     Finished { event_t_s: f64, reason: EndReason },
+    /// Listening at rest for a weak pulse: the evidence so far as an SNR, what a decision
+    /// needs, the beats weighed and the beats still to go (absent while there is no
+    /// evidence).
+    Listening {
+        event_t_s: f64,
+        snr: f64,
+        snr_needed: f64,
+        beats: f64,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        beats_to_go: Option<f64>,
+    },
     /// A move the runner made (a placement, a tracker's step) stopped short of its target.
     StoppedShort {
         what: String,
@@ -88,6 +99,13 @@ impl From<TrackerEvent> for EventKind {
             TrackerEvent::Finished { t_s, reason } => EventKind::Finished {
                 event_t_s: t_s,
                 reason,
+            },
+            TrackerEvent::Listening(p) => EventKind::Listening {
+                event_t_s: p.t_s,
+                snr: p.snr,
+                snr_needed: p.snr_needed,
+                beats: p.beats,
+                beats_to_go: p.beats_to_go,
             },
         }
     }
@@ -128,6 +146,20 @@ impl TrialEvent {
             EventKind::Backtracking { toward, .. } => format!("backtracking toward {}", mm(toward)),
             EventKind::Pulse { period_s, .. } => format!("pulse period {period_s:.3} s"),
             EventKind::Finished { reason, .. } => format!("finished: {reason:?}"),
+            EventKind::Listening {
+                event_t_s,
+                snr,
+                snr_needed,
+                beats,
+                beats_to_go,
+            } => control::tracker::ListenProgress {
+                t_s: *event_t_s,
+                snr: *snr,
+                snr_needed: *snr_needed,
+                beats: *beats,
+                beats_to_go: *beats_to_go,
+            }
+            .describe(),
             EventKind::StoppedShort {
                 what,
                 target,

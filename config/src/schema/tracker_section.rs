@@ -205,6 +205,18 @@ impl Validate for control::tracker::beatslide::BeatSlideParams {
         v.in_range("fix_floor_m", self.fix_floor_m, 1e-6, 0.01);
         v.in_range("tilt_deflection", self.tilt_deflection, 0.0, 0.2);
         v.in_range("return_speed_m_s", self.return_speed_m_s, 1e-4, 0.1);
+        // The shipped threshold table reaches 600 s and holds these false-alarm rates.
+        v.in_range("weak_limit_s", self.weak_limit_s, 0.0, 600.0);
+        v.check(
+            control::signal::weak_pulse::TABLE_PFAS.contains(&self.weak_false_alarm),
+            "weak_false_alarm",
+            format!(
+                "must be 0.01 or 0.05 (the shipped threshold table's), got {}",
+                self.weak_false_alarm
+            ),
+        );
+        // Within the array's ±9 mm reach of the last fix.
+        v.in_range("weak_step_m", self.weak_step_m, 0.001, 0.015);
     }
 }
 

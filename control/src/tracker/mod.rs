@@ -118,6 +118,37 @@ pub enum TrackerEvent {
     Pulse { t_s: f64, period_s: f64 },
     /// Tracking ended.
     Finished { t_s: f64, reason: EndReason },
+    /// Listening at rest for a pulse too weak to see in one window, once per few seconds.
+    Listening(ListenProgress),
+}
+
+/// A listen's progress: the evidence so far as an SNR, the SNR a decision needs, the beats
+/// weighed, and the beats still to go if the evidence keeps growing as it has (`None`
+/// while there is none).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ListenProgress {
+    pub t_s: f64,
+    pub snr: f64,
+    pub snr_needed: f64,
+    pub beats: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beats_to_go: Option<f64>,
+}
+
+impl ListenProgress {
+    /// For people: "listening for a weak pulse: SNR so far 4.2 of 8.0, about 30 beats to
+    /// go".
+    pub fn describe(&self) -> String {
+        let to_go = match self.beats_to_go {
+            // Extrapolated from almost no evidence the count means nothing.
+            Some(b) if b.is_finite() && b <= 1000.0 => format!("about {b:.0} beats to go"),
+            _ => "no sign of a pulse yet".to_string(),
+        };
+        format!(
+            "listening for a weak pulse: SNR so far {:.1} of {:.1}, {to_go}",
+            self.snr, self.snr_needed
+        )
+    }
 }
 
 /// A tracker's answer to one frame.

@@ -277,6 +277,13 @@ pub fn replay(steps: &[Step], tracker: &mut dyn Tracker) -> Replayed {
     out
 }
 
+/// A listen's progress as its event's JSON (`kind` "listening").
+pub(crate) fn listening_json(p: &control::tracker::ListenProgress) -> Value {
+    let mut v = serde_json::to_value(p).unwrap_or_default();
+    v["kind"] = "listening".into();
+    v
+}
+
 fn event_json(e: &TrackerEvent) -> Value {
     use serde_json::json;
     match e {
@@ -295,6 +302,7 @@ fn event_json(e: &TrackerEvent) -> Value {
         TrackerEvent::Finished { t_s, reason } => {
             json!({"kind": "finished", "t_s": t_s, "reason": reason.as_str()})
         }
+        TrackerEvent::Listening(p) => listening_json(p),
     }
 }
 

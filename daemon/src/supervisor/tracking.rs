@@ -209,6 +209,12 @@ impl Supervisor {
                     false,
                 )
             }
+            TrackerEvent::Listening(p) => {
+                self.log_line(p.t_s, level::INFO, p.describe());
+                let mut v = crate::recording::replay::listening_json(&p);
+                v["event"] = "detection".into();
+                (v, false)
+            }
             TrackerEvent::Finished { t_s, reason } => {
                 let v = json!({"event": "detection", "kind": "finished", "t_s": t_s, "reason": reason.as_str()});
                 self.record(Topic::Events, t_s, &v);

@@ -20,9 +20,11 @@ mod rest_beats;
 mod rest_search;
 mod seating;
 mod sliding;
+mod weak;
 
 use replacing::Replaced;
 use seating::{SeatedMark, SideMark, Stroke};
+use weak::{Listen, ListenFor, WeakStep};
 
 use super::beat_fix::{BeatFix, BeatMiss, SpatialPrior, analyse_window};
 use super::drag::Drag;
@@ -39,11 +41,13 @@ use crate::signal::harmonic::{Waveform, waveform_value};
 use crate::signal::kernel_fit::{KernelFit, KernelFitError, fit_kernel};
 use crate::signal::noise_level::NoiseLevel;
 use crate::signal::pulse_search::{PulseFound, PulseSearch, PulseSearchSettings, SearchMiss};
+use crate::signal::weak_pulse::Threshold;
 use crate::tracker::event_queue::EventQueue;
 use crate::tracker::{
     EndReason, LocatedPoint, MotionCommand, PredictedPoint, TrackLimit, Tracker, TrackerError,
     TrackerEvent, TrackerInput, TrackerOutput, TrackerPhase,
 };
+use crate::types::TactileFrame;
 
 /// The most events one analysis can queue (a period, a point or a miss, a backtrack or
 /// an end).
@@ -200,6 +204,11 @@ enum State {
         frames: u64,
         attempt: usize,
     },
+    /// Listening at rest for a weak pulse (`machine/weak.rs`; what for is in `listen`).
+    Listening,
+    /// Moving to the next stop along a weak artery (`machine/weak.rs`); `attempt` counts
+    /// the listens there.
+    WeakStepping(WeakStep),
     Finished(EndReason),
 }
 
@@ -276,6 +285,11 @@ pub struct BeatSlide {
     /// (the rod's deflection the tilt and lag models do not hold), smoothed over windows.
     felt_across: Option<[f64; 2]>,
     last_miss: Option<Miss>,
+    /// The weak-pulse listen in progress, its threshold (`None`: listening is off), and
+    /// whether a seed came from one (the artery is then tracked by listening).
+    listen: Option<Listen>,
+    weak_threshold: Option<Threshold>,
+    weak_artery: bool,
 }
 
 /// Smallest share of the lower of this artery's usual amplitude and the last fix's at
@@ -336,6 +350,7 @@ impl BeatSlide {
             params.max_beats_per_fix as f64 * params.max_period_s * (1.0 + MAX_DELAY_FRACTION),
         );
         let capacity = (longest_s * fs * 1.1).ceil() as usize + 16;
+        let weak_threshold = weak::weak_threshold(&params, &geometry)?;
         Ok(Self {
             params,
             geometry,
@@ -372,6 +387,9 @@ impl BeatSlide {
             previous_amplitude_n: f64::NAN,
             felt_across: None,
             last_miss: None,
+            listen: None,
+            weak_threshold,
+            weak_artery: false,
         })
     }
 
@@ -697,6 +715,19 @@ impl BeatSlide {
             .then_some(since)
     }
 
+    /// The frame as the analyses read it: skipped elements read as nothing, so no search
+    /// or fit sees a stuck or saturated element's signal and the kernel fit weighs them not
+    /// at all.
+    fn trusted_frame(&self, frame: &TactileFrame) -> TactileFrame {
+        let mut frame = *frame;
+        for (e, f) in frame.force_n.iter_mut().enumerate() {
+            if self.geometry.skip_elements.contains(e) {
+                *f = 0.0;
+            }
+        }
+        frame
+    }
+
     fn motion(&self) -> MotionCommand {
         match self.state {
             State::Sliding {
@@ -709,7 +740,12 @@ impl BeatSlide {
                 target: self.belief_from_sensor(target),
                 speed_m_s: self.params.return_speed_m_s,
             },
-            State::Replacing { target, .. } => MotionCommand::MoveTo {
+            State::WeakStepping(WeakStep {
+                target,
+                holding: false,
+                ..
+            })
+            | State::Replacing { target, .. } => MotionCommand::MoveTo {
                 target: self.belief_from_sensor(target),
                 speed_m_s: self.params.return_speed_m_s,
             },
@@ -906,10 +942,15 @@ impl Tracker for BeatSlide {
             State::Marking { .. } | State::Seating { .. } | State::Replacing { .. } => {
                 TrackerPhase::Marking
             }
+            State::Listening => match self.listen.as_ref().map(|l| l.purpose) {
+                Some(ListenFor::Mark) => TrackerPhase::Marking,
+                _ => TrackerPhase::Tracking,
+            },
             State::Sliding { .. }
             | State::Stopping { .. }
             | State::Searching { .. }
-            | State::Returning { .. } => TrackerPhase::Tracking,
+            | State::Returning { .. }
+            | State::WeakStepping(_) => TrackerPhase::Tracking,
             State::Finished(reason) => TrackerPhase::Finished(reason),
         }
     }
@@ -920,6 +961,10 @@ impl Tracker for BeatSlide {
                 self.first_side = None;
                 self.seat_home = None;
                 self.replaced = None;
+                self.listen = None;
+                if self.seeds.is_empty() {
+                    self.weak_artery = false;
+                }
                 if self.seeds.is_empty() && self.params.seat_stroke_m > 0.0 {
                     self.state = State::Seating {
                         plan: None,
@@ -1004,7 +1049,14 @@ impl Tracker for BeatSlide {
             return Ok(());
         }
         let from = self.seed_points[n - 1];
-        self.state = self.sliding_from(from).ok_or(too_close)?;
+        // A weak artery is followed by listening at stops (`machine/weak.rs`), from where
+        // the sensor stands.
+        self.state = if self.weak_artery {
+            self.weak_step_from(self.seed_sensors[n - 1])
+        } else {
+            self.sliding_from(from)
+        }
+        .ok_or(too_close)?;
         Ok(())
     }
 
@@ -1041,14 +1093,7 @@ impl Tracker for BeatSlide {
                 .map_or(self.params.lag_prior_m, PathFilter::lag_m);
             let lag_dir = self.drag.update(input.sensor, lag);
             if self.history.newest_t_s().is_none_or(|last| t_s > last) {
-                // Skipped elements read as nothing: no search or fit sees a stuck or
-                // saturated element's signal, and the kernel fit weighs them not at all.
-                let mut frame = *input.frame;
-                for (e, f) in frame.force_n.iter_mut().enumerate() {
-                    if self.geometry.skip_elements.contains(e) {
-                        *f = 0.0;
-                    }
-                }
+                let frame = self.trusted_frame(input.frame);
                 self.history
                     .push(frame, input.sensor, lag_dir, input.loaded_sensor);
             } else {
@@ -1074,6 +1119,8 @@ impl Tracker for BeatSlide {
                 frames,
                 attempt,
             } => self.step_returning(input, target, frames, attempt),
+            State::Listening => self.step_listening(input),
+            State::WeakStepping(step) => self.step_weak_stepping(input, step),
         }
         TrackerOutput {
             motion: self.motion(),

@@ -92,6 +92,18 @@ pub struct BeatSlideParams {
     /// by more than this across the path is not reported (it still steers), m: about three
     /// times that scatter. 0 ignores the reading.
     pub load_gate_m: f64,
+    /// A mark that found no pulse in `mark_max_window_s` listens on at rest for one too
+    /// weak to see in a window (`signal::weak_pulse`: its likelihood ratio over the
+    /// artery's place and the heart's timing, growing until it decides), up to this long
+    /// in all, s; at most 600 (the shipped threshold table's limit), 0 turns it off.
+    /// An artery found so is tracked by `weak_step_m` steps, listening at each
+    /// (`machine/weak.rs`).
+    pub weak_limit_s: f64,
+    /// The listen's false-alarm rate over that limit: 0.01 or 0.05 (the shipped table's).
+    pub weak_false_alarm: f64,
+    /// The distance between the listens that track a weak artery, m: each is made at rest,
+    /// after a move this far along the path model from the last.
+    pub weak_step_m: f64,
 }
 
 impl Default for BeatSlideParams {
@@ -127,6 +139,9 @@ impl Default for BeatSlideParams {
             return_speed_m_s: 0.01,
             seat_stroke_m: 0.0,
             load_gate_m: 0.0015,
+            weak_limit_s: 300.0,
+            weak_false_alarm: 0.01,
+            weak_step_m: 0.005,
         }
     }
 }

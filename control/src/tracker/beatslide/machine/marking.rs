@@ -63,6 +63,9 @@ impl BeatSlide {
                 } else if let Some(first) = self.replaced.take() {
                     // Nothing after a move onto the artery: the placement's mark stands.
                     self.accept_mark(first.outcome);
+                } else if self.can_listen() {
+                    // Too weak for a window: listen on (`machine/weak.rs`).
+                    self.begin_listening(ListenFor::Mark, since, t);
                 } else {
                     let at = self
                         .history
