@@ -267,13 +267,17 @@ fn a_pulse_the_bound_feels_in_five_beats_is_found_where_it_is() {
         rate > pd - 2.0 * (pd * (1.0 - pd) / trials as f64).sqrt(),
         "{summary}"
     );
-    assert!(close as f64 >= 0.9 * found as f64, "{summary}");
     assert!(timed as f64 >= 0.9 * found as f64, "{summary}");
-    // Decided just above threshold along a searched track, the fit is about twice the
-    // bound (measured 2.1x), and the reported SE (the bound's formula at the estimate)
-    // understates the scatter by about 1.6x: both asserted as measured, not as hoped.
-    assert!(rms < 2.5 * crb, "{summary}");
-    assert!((0.6..2.0).contains(&rms_z), "{summary}");
+    // Decided just above threshold along a searched track, the place is rougher than the
+    // bound at those beats: measured 82 % within 1 mm, RMS 3.4x the bound, and the reported
+    // SE (the bound's formula at the estimate) understating the scatter 2x. (Before the
+    // detrending was squared the statistic drifted up under noise, its thresholds were
+    // higher, and it decided later, at 3.3x the bound's beats against 2.8x now, with 90 %
+    // within 1 mm.) A caller that needs the place weighs on (`keep_weighing`). Asserted as
+    // measured, not as hoped.
+    assert!(close as f64 >= 0.75 * found as f64, "{summary}");
+    assert!(rms < 4.0 * crb, "{summary}");
+    assert!((0.6..2.5).contains(&rms_z), "{summary}");
 }
 
 #[test]

@@ -19,11 +19,12 @@
 //! - [`locate`]: the position fitted along the pulse's track, with its Cramér-Rao SE.
 //!
 //! Measured (detector_tests, pfa 0.05, heart rates 0.6-2.5 Hz, beat intervals varying by
-//! 4.6 %): a pulse the position-searched bound feels in 5 beats is found every time, in 17
-//! beats on average (3.3x), placed within 1 mm in 91 % (RMS 2.1x the Cramér-Rao bound); at
-//! 15 bound beats only ~15 % are found within 2x and ~25 % within 4x. The gap is the
-//! timing search: the unknown rate and phase (about 780 states) and the track's diffusion
-//! cost more evidence than the bound's margin at a per-beat SNR near 1.
+//! 4.6 %): a pulse the position-searched bound feels in 5 beats is found every time, in 14
+//! beats on average (2.8x), placed within 1 mm in 82 % at the decision (RMS 3.4x the
+//! Cramér-Rao bound; `WeakPulseDetector::keep_weighing` refines it); at 15 bound beats about 19 % are
+//! found within 2x and half within 4x (examples/weak_pulse_roc.rs). The gap is the timing
+//! search: the unknown rate and phase (about 780 states) and the track's diffusion cost more
+//! evidence than the bound's margin at a per-beat SNR near 1.
 //!
 //! Memory is fixed at construction (folds, track states, a 2 s ring): nothing grows with
 //! the window. Frames arriving after a decision are ignored.
