@@ -102,24 +102,18 @@ impl BeatSlide {
             SeatedMark::Both { raw, sd_m } => (raw, Some(sd_m)),
             SeatedMark::NotSeated => (raw, None),
         };
-        // Where the sensor trailed before this mark is unknown until the robot has been
-        // seen to move: that part of the lag is uncertainty.
-        let known = lag_dir[0].hypot(lag_dir[1]).min(1.0);
         // A mark made from both sides has no lag left in it.
         let (lag_dir, known) = if side_sd.is_some() {
             ([0.0, 0.0], 1.0)
         } else {
-            (lag_dir, known)
+            (lag_dir, lag_known(lag_dir))
         };
-        let observation = Observation {
-            point: raw,
-            sd_m: side_sd
-                .unwrap_or_else(|| self.fix_sd(fit))
-                .hypot(self.params.lag_prior_m * (1.0 - known)),
+        let (observation, point) = self.mark_seed(
+            raw,
+            side_sd.unwrap_or_else(|| self.fix_sd(fit)),
             lag_dir,
-        };
-        let lag = self.params.lag_prior_m;
-        let point = SurfacePoint::new(raw.x_m - lag * lag_dir[0], raw.z_m - lag * lag_dir[1]);
+            known,
+        );
         let mut sd_m = self.point_sd(observation.sd_m, lag_dir);
         // Reported where the arm's load puts it, if read. A mark from both sides is two
         // windows and has no lag left in it: it stays as it is.
@@ -151,6 +145,27 @@ impl BeatSlide {
         })
     }
 
+    /// A mark's observation for the path filter and its seed point, from the place `raw`
+    /// felt with the believed sensor positions, its fit's SD, the window's mean lag
+    /// direction and how much of it is known (`lag_known`): the unknown part of the lag is
+    /// uncertainty, the known part is taken off the point.
+    pub(super) fn mark_seed(
+        &self,
+        raw: SurfacePoint,
+        fix_sd_m: f64,
+        lag_dir: [f64; 2],
+        known: f64,
+    ) -> (Observation, SurfacePoint) {
+        let lag = self.params.lag_prior_m;
+        let observation = Observation {
+            point: raw,
+            sd_m: fix_sd_m.hypot(lag * (1.0 - known)),
+            lag_dir,
+        };
+        let point = SurfacePoint::new(raw.x_m - lag * lag_dir[0], raw.z_m - lag * lag_dir[1]);
+        (observation, point)
+    }
+
     /// Make a mark's outcome the next seed and report its point.
     pub(super) fn accept_mark(&mut self, outcome: MarkOutcome) {
         if self.seeds.len() == MAX_SEEDS {
@@ -164,4 +179,11 @@ impl BeatSlide {
         self.emit(TrackerEvent::Located(outcome.located));
         self.state = State::Seeding;
     }
+}
+
+/// How much of the sensor's lag at a mark is known: where it trailed before the mark is
+/// unknown until the robot has been seen to move (the window's mean lag direction has unit
+/// length only if it moved throughout).
+pub(super) fn lag_known(lag_dir: [f64; 2]) -> f64 {
+    lag_dir[0].hypot(lag_dir[1]).min(1.0)
 }

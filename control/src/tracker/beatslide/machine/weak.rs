@@ -263,16 +263,10 @@ impl BeatSlide {
             period_s: found.period_s,
         });
         let lag_dir = listen.mean_lag();
-        let known = lag_dir[0].hypot(lag_dir[1]).min(1.0);
         let raw = SurfacePoint::new(sensor.x_m, sensor.z_m + found.offset_z_m);
         let fix_sd = weak_se(found).hypot(self.params.fix_floor_m);
-        let observation = Observation {
-            point: raw,
-            sd_m: fix_sd.hypot(self.params.lag_prior_m * (1.0 - known)),
-            lag_dir,
-        };
-        let lag = self.params.lag_prior_m;
-        let point = SurfacePoint::new(raw.x_m - lag * lag_dir[0], raw.z_m - lag * lag_dir[1]);
+        let (observation, point) =
+            self.mark_seed(raw, fix_sd, lag_dir, marking::lag_known(lag_dir));
         // Reported where the arm's load puts it, if read, as a usual mark is.
         let (reported, at, sd_m) = match self.placed_at_rest(listen.since_s, raw, sensor) {
             Some((reported, at)) => (reported, at, fix_sd),
