@@ -5,6 +5,7 @@
 //! the field. [`shipped`] embeds the files that ship with the project so that the daemon and
 //! the command-line tool run with no files on disk.
 
+pub mod calibration_file;
 pub mod load;
 pub mod locate;
 pub mod schema;

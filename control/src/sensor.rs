@@ -49,6 +49,11 @@ impl ElementMask {
         self.0 == 0
     }
 
+    /// Every element in either set.
+    pub fn union(self, other: Self) -> Self {
+        Self(self.0 | other.0)
+    }
+
     /// 1 for a trusted element, 0 for a skipped one.
     pub fn weights(&self) -> [f64; ELEMENTS] {
         std::array::from_fn(|e| if self.contains(e) { 0.0 } else { 1.0 })

@@ -114,6 +114,16 @@ impl IncisionHysteresis {
     }
 }
 
+/// Where the simulated array is. On a rig the person calibrating the array takes it off the
+/// tissue and puts a known load on it; the simulator stands in for that person.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ArrayPlace {
+    /// On the tissue, in contact: the readings the trackers use.
+    OnTissue,
+    /// Off the tissue under a uniform load per element, N (0: nothing touching it).
+    OnBench { load_per_element_n: f64 },
+}
+
 /// The simulated bench.
 #[derive(Debug)]
 pub struct Bench {
@@ -128,6 +138,11 @@ pub struct Bench {
     fault_rng: ChaCha8Rng,
     noise_sd_n: f64,
     dead: [bool; ELEMENTS],
+    /// Each element's reading per newton and at no load (the scene's sensor errors).
+    gain: [f64; ELEMENTS],
+    offset_n: [f64; ELEMENTS],
+    /// Where the array is: on the tissue, or on the bench for its calibration.
+    array_place: ArrayPlace,
     drop_probability: f64,
     dt_s: f64,
     frame_dt_s: f64,
@@ -186,6 +201,8 @@ impl Bench {
         let sensor_offset = Vector3::from(config.robot.sensor_offset_m);
         let mut dead = [false; ELEMENTS];
         let mut drop_probability = 0.0;
+        let mut gain = [1.0; ELEMENTS];
+        let mut offset_n = [0.0; ELEMENTS];
         if let Some(f) = &scene.faults {
             for &e in &f.dead_elements {
                 if e < ELEMENTS {
@@ -193,6 +210,13 @@ impl Bench {
                 }
             }
             drop_probability = f.frame_drop_probability;
+            // Validated: one value per element, or none.
+            if let Ok(g) = <[f64; ELEMENTS]>::try_from(f.element_gains.as_slice()) {
+                gain = g;
+            }
+            if let Ok(o) = <[f64; ELEMENTS]>::try_from(f.element_offsets_n.as_slice()) {
+                offset_n = o;
+            }
         }
         let tissue = scene.tissue;
         let ideal_normal_n = scene
@@ -219,6 +243,9 @@ impl Bench {
             fault_rng: stream(seed, Stream::Faults),
             noise_sd_n: scene.sensor.noise_sd_n,
             dead,
+            gain,
+            offset_n,
+            array_place: ArrayPlace::OnTissue,
             drop_probability,
             dt_s: 1.0 / rate,
             frame_dt_s: 1.0 / frame_rate,
@@ -393,11 +420,16 @@ impl Bench {
     fn sample_frame(&mut self) -> Option<TactileFrame> {
         let (sensor, contact) = self.contact_now();
         let pulse = self.pulse.pressure_pa(self.t_s);
-        let clean = self.tactile.forces(sensor, contact, pulse);
+        let clean = match self.array_place {
+            ArrayPlace::OnTissue => self.tactile.forces(sensor, contact, pulse),
+            ArrayPlace::OnBench { load_per_element_n } => [load_per_element_n; ELEMENTS],
+        };
         let mut force_n = [0.0; ELEMENTS];
         for (i, f) in force_n.iter_mut().enumerate() {
             let signal = if self.dead[i] { 0.0 } else { clean[i] };
-            *f = signal + self.noise_sd_n * standard_normal(&mut self.noise_rng);
+            *f = self.offset_n[i]
+                + self.gain[i] * signal
+                + self.noise_sd_n * standard_normal(&mut self.noise_rng);
         }
         let seq = self.seq;
         self.seq += 1;
@@ -410,6 +442,12 @@ impl Bench {
             seq,
             force_n,
         })
+    }
+
+    /// Put the array on the tissue, or on the bench under a uniform load for its
+    /// calibration. The arm's physics goes on either way: only the array's readings change.
+    pub fn place_array(&mut self, place: ArrayPlace) {
+        self.array_place = place;
     }
 
     /// Noise-free element forces right now (for plots and tests).

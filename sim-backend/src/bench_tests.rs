@@ -200,6 +200,7 @@ fn dropped_frames_leave_gaps_and_dead_elements_read_noise() {
     s.faults = Some(crate::scene::FaultSpec {
         dead_elements: vec![4],
         frame_drop_probability: 0.2,
+        ..Default::default()
     });
     let mut bench = Bench::new(&s, &config, 3, true).unwrap();
     let mut frames = Vec::new();
@@ -363,4 +364,80 @@ fn an_applanated_radial_artery_swings_an_element_by_about_fifteen_millinewtons()
     half_space.artery.kernel = crate::scene::PressureKernel::Analytic;
     let h = swing(&half_space);
     assert!(h < 0.4 * applanated, "{h} vs {applanated}");
+}
+
+/// On the calibration bench the array reads each element's offset plus gain times the load
+/// plus noise, and the tactile calibration recovers the scene's gains and its dead element
+/// from those readings; back on the tissue it reads the tissue again.
+#[test]
+fn the_array_on_the_bench_reads_its_errors_and_the_calibration_recovers_them() {
+    use control::calibration::{ElementStatus, TactileSettings, Tare, calibrate_gains};
+    let config = sim_config();
+    let s = scene("sensor-errors-arc-145.ron");
+    let f = s.faults.clone().expect("the scene has sensor errors");
+    let mut bench = Bench::new(&s, &config, 5, true).expect("bench");
+    let record = |bench: &mut Bench, place: ArrayPlace| {
+        bench.place_array(place);
+        let mut frames = Vec::new();
+        while frames.len() < 500 {
+            frames.extend(bench.step());
+        }
+        frames
+    };
+    let rest = record(
+        &mut bench,
+        ArrayPlace::OnBench {
+            load_per_element_n: 0.0,
+        },
+    );
+    let load = 0.25;
+    let loaded = record(
+        &mut bench,
+        ArrayPlace::OnBench {
+            load_per_element_n: load,
+        },
+    );
+    let tare = Tare::from_frames(&rest, &TactileSettings::default()).expect("tare");
+    let cal = calibrate_gains(&tare, &loaded, load).expect("gains");
+    for e in 0..ELEMENTS {
+        let c = &cal.elements[e];
+        // Offsets from 500 frames of 12 mN noise: SE 0.5 mN; gains: SE 0.3 %.
+        assert!(
+            (c.offset_n - f.element_offsets_n[e]).abs() < 0.003,
+            "element {e}: offset {} against {}",
+            c.offset_n,
+            f.element_offsets_n[e]
+        );
+        assert!(
+            (c.noise_sd_n - 0.012).abs() < 0.002,
+            "element {e}: {}",
+            c.noise_sd_n
+        );
+        if f.dead_elements.contains(&e) {
+            assert_eq!(c.status, ElementStatus::Dead, "element {e}");
+        } else {
+            assert_eq!(c.status, ElementStatus::Good, "element {e}");
+            assert!(
+                (c.gain - f.element_gains[e]).abs() < 4.0 * c.gain_standard_error + 1e-9,
+                "element {e}: gain {} ± {} against {}",
+                c.gain,
+                c.gain_standard_error,
+                f.element_gains[e]
+            );
+        }
+    }
+    // Back on the tissue the corrected readings are the clean forces again.
+    bench.place_array(ArrayPlace::OnTissue);
+    let frame = loop {
+        if let Some(fr) = bench.step() {
+            break fr;
+        }
+    };
+    let clean = bench.clean_forces();
+    let corrected = cal.correct_frame(&frame);
+    for (e, (got, want)) in corrected.force_n.iter().zip(clean).enumerate() {
+        if !f.dead_elements.contains(&e) {
+            assert!((got - want).abs() < 0.06, "element {e}: {got} against {want}");
+        }
+    }
 }

@@ -10,7 +10,7 @@ use control::ports::{Manipulator, TactileArray};
 use control::types::{JointState, JointTorques, TactileFrame};
 use crossbeam_channel::{Receiver, Sender, TryRecvError, TrySendError};
 
-use crate::bench::{Bench, SimTruth};
+use crate::bench::{ArrayPlace, Bench, SimTruth};
 use crate::error::SimError;
 use crate::scene::{ArteryPath, Scene};
 
@@ -42,6 +42,7 @@ impl SimRig {
                 bench: self.bench,
                 frames: tx,
                 dropped: 0,
+                places: None,
             },
             SimTactile { frames: rx },
         )
@@ -54,6 +55,20 @@ pub struct SimArm {
     bench: Bench,
     frames: Sender<TactileFrame>,
     dropped: u64,
+    /// Where the array is to go, from whoever holds the [`ArrayHand`].
+    places: Option<Receiver<ArrayPlace>>,
+}
+
+/// Moves the simulated array between the tissue and the calibration bench from another
+/// thread (the daemon's debug hook); the arm applies it at its next step.
+#[derive(Debug, Clone)]
+pub struct ArrayHand(Sender<ArrayPlace>);
+
+impl ArrayHand {
+    /// False once the simulated arm is gone.
+    pub fn place(&self, place: ArrayPlace) -> bool {
+        self.0.send(place).is_ok()
+    }
 }
 
 impl SimArm {
@@ -81,6 +96,13 @@ impl SimArm {
     pub fn dt_s(&self) -> f64 {
         self.bench.dt_s()
     }
+
+    /// A hand that moves the array (replaces any earlier one).
+    pub fn array_hand(&mut self) -> ArrayHand {
+        let (tx, rx) = crossbeam_channel::unbounded();
+        self.places = Some(rx);
+        ArrayHand(tx)
+    }
 }
 
 impl Manipulator for SimArm {
@@ -102,6 +124,11 @@ impl Manipulator for SimArm {
 
     fn write_torques(&mut self, torques: &JointTorques) -> Result<(), SimError> {
         self.bench.write_torques(torques)?;
+        if let Some(places) = &self.places {
+            while let Ok(p) = places.try_recv() {
+                self.bench.place_array(p);
+            }
+        }
         if let Some(frame) = self.bench.step() {
             match self.frames.try_send(frame) {
                 Ok(()) => {}

@@ -10,6 +10,7 @@
 
 use std::time::Instant;
 
+use control::calibration::TactileCalibration;
 use control::frames::SurfacePoint;
 use control::kinematics::ArmModel;
 use control::kinematics::RodMechanics;
@@ -56,8 +57,21 @@ pub fn run_trial(
     tracker: &str,
     seed: u64,
 ) -> Result<TrialResult, SimError> {
+    run_trial_calibrated(scene, config, tracker, seed, None)
+}
+
+/// [`run_trial`] with the tactile array's calibration applied as the daemon applies it:
+/// every frame corrected before the tracker sees it, the tracker built with the
+/// calibration's unusable elements skipped and its measured noise.
+pub fn run_trial_calibrated(
+    scene: &Scene,
+    config: &config::Config,
+    tracker: &str,
+    seed: u64,
+    calibration: Option<&TactileCalibration>,
+) -> Result<TrialResult, SimError> {
     let wall = Instant::now();
-    let mut trial = Lockstep::new(scene, config, tracker, seed)?;
+    let mut trial = Lockstep::new(scene, config, tracker, seed, calibration)?;
     let mut result = trial.run(scene)?;
     result.seed = seed;
     result.wall_s = wall.elapsed().as_secs_f64();
@@ -109,6 +123,8 @@ struct Lockstep {
     recent_truth: std::collections::VecDeque<(f64, SurfacePoint)>,
     /// What reads the sensor's place from the arm's load, where the config describes the rod.
     load_reading: Option<LoadReading>,
+    /// The array's calibration, applied to every frame before the tracker sees it.
+    calibration: Option<TactileCalibration>,
 }
 
 /// The rod and the arm's own bodies, to read where the sensor is from the motors' torque
@@ -147,8 +163,15 @@ impl Lockstep {
         config: &config::Config,
         tracker: &str,
         seed: u64,
+        calibration: Option<&TactileCalibration>,
     ) -> Result<Self, SimError> {
         let robot = &config.robot;
+        let sensor = match calibration {
+            Some(c) => c
+                .geometry(&config.sensor)
+                .map_err(|e| SimError::Config(format!("tactile calibration: {e}")))?,
+            None => config.sensor,
+        };
         let model = ArmModel::new(
             robot.phantom,
             robot.joint_limits,
@@ -156,14 +179,15 @@ impl Lockstep {
             robot.tissue,
             robot.sensor_offset_m,
         )?;
-        let tracker = control::tracker::build(tracker, &config.tracker.params, &config.sensor)
-            .map_err(|e| match e {
+        let tracker = control::tracker::build(tracker, &config.tracker.params, &sensor).map_err(
+            |e| match e {
                 control::tracker::BuildError::Unknown(u) => SimError::UnknownTracker {
                     name: u.name,
                     known: control::tracker::TRACKER_NAMES.join(", "),
                 },
                 other => SimError::Control(other.to_string()),
-            })?;
+            },
+        )?;
         let bench = Bench::new(scene, config, seed, scene.robot.is_none())?;
         let pd =
             PdController::new(config.control.pd).map_err(|e| SimError::Control(e.to_string()))?;
@@ -196,6 +220,7 @@ impl Lockstep {
             log: Vec::new(),
             recent_truth: std::collections::VecDeque::with_capacity(RECENT_FRAMES + 1),
             load_reading: None,
+            calibration: calibration.copied(),
         };
         lockstep.load_reading = described_rod(config, &lockstep.bench).map(|rod| LoadReading {
             rod,
@@ -562,8 +587,9 @@ impl Lockstep {
 
     /// Feed one frame to the tracker and act on its answer; returns the event.
     fn feed(&mut self, frame: &TactileFrame) -> Result<Option<TrackerEvent>, Stop> {
+        let corrected = self.calibration.as_ref().map(|c| c.correct_frame(frame));
         let input = TrackerInput {
-            frame,
+            frame: corrected.as_ref().unwrap_or(frame),
             sensor: self.believed_surface(),
             settled: self.settled(),
             loaded_sensor: self.felt_surface(),

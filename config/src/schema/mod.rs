@@ -5,6 +5,7 @@
 //! constants) are defined in `control` and validated here.
 
 mod backend;
+mod calibration_section;
 mod control_section;
 mod daemon_sections;
 mod instrument;
@@ -17,6 +18,7 @@ use serde::{Deserialize, Serialize};
 pub use backend::{
     Backend, CanAdapter, CanJoints, HardwareBackend, SLCAN_BITRATES, SerialTactile, SimBackend,
 };
+pub use calibration_section::CalibrationSection;
 pub use control_section::ControlSection;
 pub use daemon_sections::{
     ConsoleSection, OperationSection, RealtimeSection, RecordingSection, SafetySection,
@@ -56,6 +58,9 @@ pub struct Config {
     /// The live view (Foxglove WebSocket); absent: off.
     #[serde(default)]
     pub live: LiveSection,
+    /// The rig's calibration file and the tolerances its procedures are judged by.
+    #[serde(default)]
+    pub calibration: CalibrationSection,
     /// What the gimbal carries; absent: only the arm's own bodies are gravity-compensated.
     #[serde(default)]
     pub instrument: Option<control::pd::gravity::Instrument>,
@@ -91,6 +96,7 @@ impl Validate for Config {
         v.section("console", &self.console);
         v.section("recording", &self.recording);
         v.section("live", &self.live);
+        v.section("calibration", &self.calibration);
         if let Some(r) = &self.rod {
             v.at("rod", |v| {
                 v.positive("bending_stiffness_nm2", r.bending_stiffness_nm2);

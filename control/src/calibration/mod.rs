@@ -9,6 +9,7 @@
 
 pub mod pivot;
 pub mod tactile;
+mod tactile_applied;
 pub mod tissue_frame;
 pub mod tolerance;
 

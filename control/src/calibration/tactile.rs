@@ -224,7 +224,8 @@ impl ElementStatus {
 }
 
 /// One element's calibration.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ElementCalibration {
     /// No-load reading, N.
     pub offset_n: f64,
@@ -238,7 +239,8 @@ pub struct ElementCalibration {
 }
 
 /// The whole array's calibration.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TactileCalibration {
     pub elements: [ElementCalibration; ELEMENTS],
     /// The known load the gains refer to, N per element.

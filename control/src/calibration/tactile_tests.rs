@@ -364,3 +364,85 @@ fn the_negative_rail_saturates_and_overflowing_readings_are_never_good() {
     assert!(cal.noise_sd_n().is_some_and(f64::is_finite));
     assert!(cal.worst_gain_relative_error().is_finite());
 }
+
+/// The calibration of `rig()` from fresh recordings.
+fn calibrated(seed: u64) -> TactileCalibration {
+    let (rest, loaded) = recordings(&rig(), seed);
+    let tare = Tare::from_frames(&rest, &settings()).expect("tare");
+    calibrate_gains(&tare, &loaded, LOAD).expect("gains")
+}
+
+#[test]
+fn a_corrected_frame_reads_the_true_force_and_zero_where_unusable() {
+    let cal = calibrated(11);
+    let rig = rig();
+    // A noise-free frame under 0.3 N on every element.
+    let raw = TactileFrame {
+        t_s: 4.0,
+        seq: 77,
+        force_n: std::array::from_fn(|e| rig.offset[e] + rig.gain[e] * 0.3),
+    };
+    let out = cal.correct_frame(&raw);
+    assert_eq!((out.t_s, out.seq), (4.0, 77));
+    for e in 0..ELEMENTS {
+        if [DEAD, STUCK, SATURATED].contains(&e) {
+            assert_eq!(out.force_n[e], 0.0, "element {e} is unusable");
+        } else {
+            // Offsets within ~1 mN and gains within ~0.3 % from 500 frames of 12 mN noise.
+            assert!(
+                (out.force_n[e] - 0.3).abs() < 0.01,
+                "element {e}: {} N",
+                out.force_n[e]
+            );
+        }
+    }
+}
+
+#[test]
+fn the_geometry_skips_the_unusable_elements_and_takes_the_measured_noise() {
+    let cal = calibrated(12);
+    let configured = crate::sensor::ArrayGeometry {
+        skip_elements: crate::sensor::ElementMask::try_from(vec![0]).expect("mask"),
+        ..Default::default()
+    };
+    let g = cal
+        .geometry(&configured)
+        .expect("seven elements stay trusted");
+    assert_eq!(
+        Vec::<usize>::from(g.skip_elements),
+        vec![0, DEAD, STUCK, SATURATED]
+    );
+    // σ / gain over the usable elements: 0.012 over gains 0.8 to 1.15, median near 0.012.
+    assert!((g.noise_sd_n - SIGMA).abs() < 0.002, "{}", g.noise_sd_n);
+    assert_eq!(g.pitch_m, configured.pitch_m);
+    // One more skipped in the config leaves five: refused, naming the skipped elements.
+    let too_many = crate::sensor::ArrayGeometry {
+        skip_elements: crate::sensor::ElementMask::try_from(vec![0, 1, 3]).expect("mask"),
+        ..Default::default()
+    };
+    let e = cal.geometry(&too_many).expect_err("five trusted");
+    assert!(
+        e.contains("[0, 1, 2, 3, 5, 8]") && e.contains("leaves 4"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_calibration_from_a_file_is_checked_naming_the_element() {
+    let good = calibrated(13);
+    assert!(good.validate().is_ok());
+    let mut bad = good;
+    bad.elements[3].gain = f64::NAN;
+    let e = bad.validate().expect_err("NaN gain");
+    assert!(e.contains("element 3") && e.contains("gain"), "{e}");
+    let mut bad = good;
+    bad.elements[4].gain = -0.5;
+    assert!(bad.validate().expect_err("negative").contains("element 4"));
+    // An unusable element's numbers are never used, so they are not judged.
+    let mut dead = good;
+    dead.elements[DEAD].gain = f64::NAN;
+    assert!(dead.validate().is_ok());
+    let mut bad = good;
+    bad.known_force_per_element_n = 0.0;
+    assert!(bad.validate().expect_err("no load").contains("known_force"));
+}

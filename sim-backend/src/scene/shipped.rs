@@ -43,6 +43,10 @@ pub const SHIPPED: &[(&str, &str)] = &[
         include_str!("../../../config/scenes/robust-occlusion.ron"),
     ),
     (
+        "sensor-errors-arc-145.ron",
+        include_str!("../../../config/scenes/sensor-errors-arc-145.ron"),
+    ),
+    (
         "tight-arc-20.ron",
         include_str!("../../../config/scenes/tight-arc-20.ron"),
     ),
@@ -95,6 +99,7 @@ const NAMES: &[&str] = &[
     "robust-lumps.ron",
     "robust-noise-doubled.ron",
     "robust-occlusion.ron",
+    "sensor-errors-arc-145.ron",
     "tight-arc-20.ron",
     "tight-arc-30.ron",
     "tight-arc-40.ron",

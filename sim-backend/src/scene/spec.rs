@@ -381,6 +381,12 @@ pub struct FaultSpec {
     pub dead_elements: Vec<usize>,
     /// Probability that a tactile frame is lost (a gap in `seq`).
     pub frame_drop_probability: f64,
+    /// Each element's gain (reading per newton), element 0 first: the sensitivity spread the
+    /// tactile calibration measures. Empty: every gain 1.
+    pub element_gains: Vec<f64>,
+    /// Each element's reading at no load, N, element 0 first: what the tare removes.
+    /// Empty: 0 N.
+    pub element_offsets_n: Vec<f64>,
 }
 
 impl Default for FaultSpec {
@@ -388,6 +394,8 @@ impl Default for FaultSpec {
         Self {
             dead_elements: Vec::new(),
             frame_drop_probability: 0.0,
+            element_gains: Vec::new(),
+            element_offsets_n: Vec::new(),
         }
     }
 }

@@ -284,7 +284,9 @@ fn golden(name: &str, path: &ArteryPath) -> String {
 fn shipped_scenes_give_exactly_the_paths_they_gave_before() {
     let expected = include_str!("testdata/shipped_paths.golden");
     let mut got = String::new();
-    for name in shipped_names() {
+    // Scenes shipped since have no "before": they are left out.
+    let recorded = |name: &str| expected.contains(&format!("scene {name} length"));
+    for name in shipped_names().iter().filter(|n| recorded(n)) {
         let scene = load(name, None).unwrap();
         let path = ArteryPath::from_spec(&scene.artery.path).unwrap();
         got.push_str(&golden(name, &path));

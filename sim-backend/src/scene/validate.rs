@@ -53,6 +53,23 @@ impl Validate for Scene {
                     );
                 }
                 v.in_range("frame_drop_probability", f.frame_drop_probability, 0.0, 0.9);
+                for (name, values, lo, hi) in [
+                    ("element_gains", &f.element_gains, 0.0, 10.0),
+                    ("element_offsets_n", &f.element_offsets_n, -3.0, 3.0),
+                ] {
+                    v.check(
+                        values.is_empty() || values.len() == control::types::ELEMENTS,
+                        name,
+                        format!(
+                            "lists {} values; give one per element ({}) or none",
+                            values.len(),
+                            control::types::ELEMENTS
+                        ),
+                    );
+                    for (i, &x) in values.iter().enumerate() {
+                        v.in_range(&format!("{name}[{i}]"), x, lo, hi);
+                    }
+                }
             });
         }
         for (i, p) in self.placements.iter().enumerate() {

@@ -1,0 +1,155 @@
+//! The rig's calibration file: what the calibration procedures measured, with each result's
+//! checks against the tolerances and whether it passed. The daemon loads it beside its
+//! config at start and applies the results that passed; a procedure that passes rewrites it
+//! (atomically: a crash leaves the old file or the new one, never half of one).
+
+use std::io::Write;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::load::{ConfigError, Loaded, load_file};
+use crate::validate::{Validate, Validator};
+use control::calibration::{Bound, Check, TactileCalibration};
+
+/// Bumped on any incompatible change to the file.
+pub const CALIBRATION_VERSION: u32 = 1;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationFile {
+    pub version: u32,
+    /// The tactile array's tare, gains and unusable elements; absent: not calibrated.
+    #[serde(default)]
+    pub tactile: Option<TactileRecord>,
+}
+
+impl Default for CalibrationFile {
+    fn default() -> Self {
+        Self {
+            version: CALIBRATION_VERSION,
+            tactile: None,
+        }
+    }
+}
+
+/// One tactile calibration as measured.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TactileRecord {
+    /// When the loaded recording ended, UTC (`2026-11-28T01-02-03Z`).
+    pub measured_utc: String,
+    /// Frames in the no-load and the loaded recordings.
+    pub no_load_frames: usize,
+    pub loaded_frames: usize,
+    pub calibration: TactileCalibration,
+    pub checks: Vec<CheckRecord>,
+    /// Every check passed; the daemon applies only a record that passed.
+    pub passed: bool,
+}
+
+/// A check as written to the file (`control::calibration::Check` with owned names).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckRecord {
+    pub quantity: String,
+    pub value: f64,
+    /// `at_most` or `at_least`.
+    pub bound: String,
+    pub limit: f64,
+    pub unit: String,
+    pub passed: bool,
+}
+
+impl From<&Check> for CheckRecord {
+    fn from(c: &Check) -> Self {
+        Self {
+            quantity: c.quantity.to_string(),
+            value: c.value,
+            bound: match c.bound {
+                Bound::AtMost => "at_most",
+                Bound::AtLeast => "at_least",
+            }
+            .to_string(),
+            limit: c.limit,
+            unit: c.unit.to_string(),
+            passed: c.passed(),
+        }
+    }
+}
+
+impl Validate for CalibrationFile {
+    fn validate(&self, v: &mut Validator) {
+        v.check(
+            self.version == CALIBRATION_VERSION,
+            "version",
+            format!(
+                "calibration file version {} is not supported (this build reads {CALIBRATION_VERSION})",
+                self.version
+            ),
+        );
+        if let Some(t) = &self.tactile {
+            v.at("tactile", |v| {
+                v.check(!t.measured_utc.is_empty(), "measured_utc", "must say when");
+                if let Err(e) = t.calibration.validate() {
+                    v.problem("calibration", e);
+                }
+                v.check(
+                    !t.passed || t.checks.iter().all(|c| c.passed),
+                    "passed",
+                    "is true, but a check failed",
+                );
+            });
+        }
+    }
+}
+
+/// The calibration file at `path`: `Ok(None)` if there is none yet; an error naming the
+/// file, line and field if it cannot be used.
+pub fn load(path: &Path) -> Result<Option<Loaded<CalibrationFile>>, ConfigError> {
+    match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        _ => load_file(path).map(Some),
+    }
+}
+
+/// Write `file` to `path` so that the file on disk is the old one or the new one whole,
+/// even across a crash or a power cut: a temporary file in the same folder, synced, renamed
+/// over the old one, and the folder synced. The folder is made if missing. Nothing is
+/// changed if any step fails.
+pub fn save(path: &Path, file: &CalibrationFile) -> Result<(), String> {
+    let text = ron::ser::to_string_pretty(file, ron::ser::PrettyConfig::default())
+        .map_err(|e| format!("cannot write the calibration as RON: {e}"))?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path
+        .file_name()
+        .ok_or_else(|| format!("{} names no file", path.display()))?;
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot make {}: {e}", dir.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let written = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(
+            b"// pulsetrack rig calibration, written by the daemon (docs/rig-bring-up.md)\n",
+        )?;
+        f.write_all(text.as_bytes())?;
+        f.write_all(b"\n")?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)?;
+        std::fs::File::open(dir)?.sync_all()
+    })();
+    written.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        format!("cannot write {}: {e}", path.display())
+    })
+}
+
+#[cfg(test)]
+#[path = "calibration_file_tests.rs"]
+mod tests;

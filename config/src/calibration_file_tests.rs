@@ -1,0 +1,172 @@
+use super::*;
+use control::calibration::{ElementCalibration, ElementStatus};
+
+fn tactile() -> TactileRecord {
+    let good = ElementCalibration {
+        offset_n: 0.05,
+        noise_sd_n: 0.012,
+        gain: 0.9,
+        gain_standard_error: 0.002,
+        status: ElementStatus::Good,
+    };
+    let mut elements = [good; control::types::ELEMENTS];
+    elements[4] = ElementCalibration {
+        gain: 0.01,
+        status: ElementStatus::Dead,
+        ..good
+    };
+    TactileRecord {
+        measured_utc: "2026-11-28T00-30-00Z".into(),
+        no_load_frames: 500,
+        loaded_frames: 500,
+        calibration: TactileCalibration {
+            elements,
+            known_force_per_element_n: 0.2,
+        },
+        checks: vec![CheckRecord {
+            quantity: "unusable tactile elements".into(),
+            value: 1.0,
+            bound: "at_most".into(),
+            limit: 1.0,
+            unit: String::new(),
+            passed: true,
+        }],
+        passed: true,
+    }
+}
+
+#[test]
+fn a_saved_file_loads_back_the_same() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("state/calibration.ron");
+    assert!(load(&path).expect("no file is no calibration").is_none());
+    let file = CalibrationFile {
+        version: CALIBRATION_VERSION,
+        tactile: Some(tactile()),
+    };
+    save(&path, &file).expect("saved, making the folder");
+    let back = load(&path).expect("loads").expect("present");
+    assert_eq!(back.value, file);
+    // No temporary file is left beside it.
+    let names: Vec<_> = std::fs::read_dir(path.parent().expect("dir"))
+        .expect("list")
+        .map(|e| e.expect("entry").file_name())
+        .collect();
+    assert_eq!(names.len(), 1, "{names:?}");
+}
+
+#[test]
+fn a_bad_file_is_refused_naming_the_field() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("calibration.ron");
+    let mut t = tactile();
+    t.calibration.elements[2].gain = -1.0;
+    save(
+        &path,
+        &CalibrationFile {
+            version: CALIBRATION_VERSION,
+            tactile: Some(t),
+        },
+    )
+    .expect("saved");
+    let e = load(&path).expect_err("negative gain").to_string();
+    assert!(
+        e.contains("tactile.calibration") && e.contains("element 2"),
+        "{e}"
+    );
+
+    let mut t = tactile();
+    t.checks[0].passed = false;
+    save(
+        &path,
+        &CalibrationFile {
+            version: CALIBRATION_VERSION,
+            tactile: Some(t),
+        },
+    )
+    .expect("saved");
+    let e = load(&path)
+        .expect_err("passed with a failed check")
+        .to_string();
+    assert!(e.contains("tactile.passed"), "{e}");
+
+    std::fs::write(&path, "(version: 1, tactile: (measured_utc: \"x\"))").expect("write");
+    let e = load(&path).expect_err("missing fields").to_string();
+    assert!(e.contains("calibration.ron:1"), "{e}");
+    std::fs::write(&path, "(version: 7)").expect("write");
+    let e = load(&path).expect_err("version").to_string();
+    assert!(e.contains("version 7"), "{e}");
+    std::fs::write(&path, [0xff, 0xfe, 0x00]).expect("write");
+    assert!(load(&path).is_err());
+}
+
+#[test]
+fn a_file_that_cannot_be_written_leaves_the_old_one() {
+    let dir = tempfile::tempdir().expect("tmp");
+    // A folder where the file should be: the rename fails after the temporary is written.
+    let path = dir.path().join("calibration.ron");
+    std::fs::create_dir(&path).expect("dir in the way");
+    std::fs::write(path.join("keep"), "x").expect("write");
+    let e = save(&path, &CalibrationFile::default()).expect_err("a folder is in the way");
+    assert!(e.contains("calibration.ron"), "{e}");
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .expect("list")
+        .map(|e| e.expect("entry").file_name())
+        .collect();
+    assert_eq!(left.len(), 1, "the temporary file is removed: {left:?}");
+}
+
+#[test]
+fn a_full_disk_leaves_the_old_file_whole() {
+    if !nix_is_root() {
+        eprintln!("skipped: mounting a tmpfs needs root");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tmp");
+    let disk = dir.path().join("disk");
+    std::fs::create_dir(&disk).expect("dir");
+    let mounted = std::process::Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
+        .arg(&disk)
+        .status()
+        .is_ok_and(|s| s.success());
+    if !mounted {
+        eprintln!("skipped: cannot mount a tmpfs here");
+        return;
+    }
+    let path = disk.join("calibration.ron");
+    let old = CalibrationFile {
+        version: CALIBRATION_VERSION,
+        tactile: Some(tactile()),
+    };
+    save(&path, &old).expect("room for the first");
+    let before = std::fs::read(&path).expect("bytes");
+    let mut f = std::fs::File::create(disk.join("filler")).expect("filler");
+    let block = vec![0u8; 4096];
+    while f.write_all(&block).is_ok() {}
+    drop(f);
+    let mut new = old.clone();
+    if let Some(t) = &mut new.tactile {
+        t.measured_utc = "2026-11-28T02-00-00Z".into();
+    }
+    let e = save(&path, &new).expect_err("no room");
+    assert!(e.contains("No space left"), "{e}");
+    assert_eq!(std::fs::read(&path).expect("still there"), before);
+    assert_eq!(std::fs::read_dir(&disk).expect("list").count(), 2);
+    let _ = std::process::Command::new("umount")
+        .arg("-l")
+        .arg(&disk)
+        .status();
+}
+
+fn nix_is_root() -> bool {
+    // The effective uid without a dependency: /proc/self/status's second Uid field.
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("Uid:"))
+                .and_then(|l| l.split_whitespace().nth(2).map(|u| u == "0"))
+        })
+        .unwrap_or(false)
+}
