@@ -62,6 +62,14 @@ impl LoadedConfig {
         c.recording.dir = crate::runtime_paths::expand(&c.recording.dir)
             .display()
             .to_string();
+        // A relative calibration file lies beside the config file.
+        let file = crate::runtime_paths::expand(&c.calibration.file);
+        c.calibration.file = match &l.dir {
+            Some(d) if file.is_relative() => d.join(file),
+            _ => file,
+        }
+        .display()
+        .to_string();
         Ok(l)
     }
 
@@ -209,6 +217,55 @@ pub struct Daemon {
     _lock: InstanceLock,
 }
 
+/// The calibration file's results that passed, applied from the start; a file that cannot
+/// be read or used stops the start (exit 2), naming the file and the field: running on as if
+/// uncalibrated would silently change what the trackers read.
+fn calibration_at_start(
+    c: &Config,
+    time_scale: f64,
+    bench: Option<Box<dyn crate::backend::ArrayBench>>,
+) -> Result<crate::supervisor::calibration::Calibration, StartError> {
+    use crate::supervisor::calibration::{Calibration, CalibrationSettings, usable_record};
+    let settings = CalibrationSettings {
+        file: PathBuf::from(&c.calibration.file),
+        tolerances: c.calibration.tolerances,
+        tactile: c.calibration.tactile,
+        tactile_recording_s: c.calibration.tactile_recording_s,
+        sensor: c.sensor,
+        time_scale,
+    };
+    let file = config::calibration_file::load(&settings.file)
+        .map_err(|e| StartError::Control(format!("calibration file: {e}")))?;
+    let tactile = match file.and_then(|f| f.value.tactile) {
+        None => {
+            tracing::info!(
+                "no tactile calibration in {}: the array is read as configured",
+                settings.file.display()
+            );
+            None
+        }
+        Some(r) => match usable_record(&r, &settings.sensor) {
+            Ok(g) => {
+                tracing::info!(
+                    "tactile calibration of {} from {} in use: elements {:?} skipped, noise {:.4} N",
+                    r.measured_utc,
+                    settings.file.display(),
+                    Vec::<usize>::from(g.skip_elements),
+                    g.noise_sd_n
+                );
+                Some(r)
+            }
+            Err(e) => {
+                return Err(StartError::Control(format!(
+                    "calibration file {}: {e}",
+                    settings.file.display()
+                )));
+            }
+        },
+    };
+    Ok(Calibration::new(settings, tactile, bench))
+}
+
 /// Take the configuration's instance lock (which also checks its directories).
 fn lock_instance(c: &Config) -> Result<InstanceLock, StartError> {
     InstanceLock::acquire(
@@ -307,6 +364,7 @@ impl Daemon {
             .map_err(io_err("starting the recorder thread"))?;
 
         let info = opened.info.clone();
+        let calibration = calibration_at_start(c, info.time_scale, opened.array_bench)?;
         let wall_bound = info.wall_clock_bound;
         let time_scale = info.time_scale;
         let stop_timeout = Duration::from_secs_f64((5.0 / time_scale).clamp(0.5, 5.0));
@@ -365,6 +423,7 @@ impl Daemon {
             info.clone(),
             opened.judge,
             factory,
+            calibration,
         );
         let supervisor = std::thread::Builder::new()
             .name("pulsetrack-sup".into())

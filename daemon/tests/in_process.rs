@@ -44,7 +44,7 @@ fn start_with_servo(
         Parts {
             backend: double::backend_with_wall(wall_x_m),
             servo: Box::new(servo),
-            tracker: Box::new(|| Ok(Box::new(double::FakeTracker::new()))),
+            tracker: Box::new(|_| Ok(Box::new(double::FakeTracker::new()))),
         },
     )
     .expect("daemon starts");

@@ -70,5 +70,6 @@ pub fn open(
             scene: None,
         },
         judge: None,
+        array_bench: None,
     })
 }

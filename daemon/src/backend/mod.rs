@@ -90,6 +90,17 @@ pub struct Backend {
     pub info: BackendInfo,
     /// Lateral error of located points against the true path (sim only).
     pub judge: Option<Box<dyn PathJudge>>,
+    /// Takes the array to the calibration bench and back (sim only).
+    pub array_bench: Option<Box<dyn ArrayBench>>,
+}
+
+/// Moves the simulated array between the tissue and the calibration bench: the simulator's
+/// stand-in for the person who takes the array off and puts a known load on it. On a rig
+/// that person does it by hand.
+pub trait ArrayBench: Send {
+    /// On the bench under a uniform load per element, N (`Some(0.0)`: nothing on it), or
+    /// back on the tissue (`None`). False if the simulator is gone.
+    fn place(&self, load_per_element_n: Option<f64>) -> bool;
 }
 
 impl std::fmt::Debug for Backend {

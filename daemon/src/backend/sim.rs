@@ -7,11 +7,13 @@ use std::path::Path;
 use control::frames::SurfacePoint;
 use control::ports::{Manipulator, TactileArray};
 use control::types::{JointState, JointTorques, TactileFrame};
-use sim::rig::{SimArm, SimRig, SimTactile};
+use sim::bench::ArrayPlace;
+use sim::rig::{ArrayHand, SimArm, SimRig, SimTactile};
 use sim::scene::{ArteryPath, PulseSource, PulseSpec};
 
 use crate::backend::{
-    ArmPort, Backend, BackendInfo, OpenError, PathJudge, PortError, SceneInfo, TactilePort, Truth,
+    ArmPort, ArrayBench, Backend, BackendInfo, OpenError, PathJudge, PortError, SceneInfo,
+    TactilePort, Truth,
 };
 
 struct SimArmPort(SimArm);
@@ -57,6 +59,19 @@ impl TactilePort for SimTactilePort {
     }
 }
 
+struct SimArrayBench(ArrayHand);
+
+impl ArrayBench for SimArrayBench {
+    fn place(&self, load_per_element_n: Option<f64>) -> bool {
+        self.0.place(match load_per_element_n {
+            Some(l) => ArrayPlace::OnBench {
+                load_per_element_n: l,
+            },
+            None => ArrayPlace::OnTissue,
+        })
+    }
+}
+
 /// Scores against the scene's true path; counts the scene's heartbeats.
 struct SceneJudge {
     path: ArteryPath,
@@ -87,7 +102,8 @@ pub fn open(
 ) -> Result<Backend, OpenError> {
     let scene = sim::scene::load(&s.scene, base_dir)?;
     let rig = SimRig::new(&scene, config, s.seed).map_err(|e| OpenError::Backend(e.to_string()))?;
-    let (arm, tactile) = rig.split();
+    let (mut arm, tactile) = rig.split();
+    let hand = arm.array_hand();
     let judge = SceneJudge {
         path: arm.path().clone(),
         pulse: scene.pulse.clone(),
@@ -111,5 +127,6 @@ pub fn open(
             }),
         },
         judge: Some(Box::new(judge)),
+        array_bench: Some(Box::new(SimArrayBench(hand))),
     })
 }

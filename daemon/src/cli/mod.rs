@@ -2,6 +2,7 @@
 
 mod bench;
 mod bound;
+mod calibrate;
 mod check_config;
 mod completions;
 pub mod console;
@@ -58,6 +59,9 @@ pub(crate) enum Command {
     Bound(bound::Args),
     /// Monte Carlo of trials over scenes and trackers on every core: speed against error.
     Bench(bench::Args),
+    /// Run a step of a rig calibration procedure on the daemon and print its result
+    /// (docs/rig-bring-up.md).
+    Calibrate(calibrate::CalibrateArgs),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
     Completions(completions::Args),
     /// Print the man page, or write one page per subcommand into a directory.
@@ -112,6 +116,7 @@ pub fn run() -> ExitCode {
         Command::Sim(args) => sim::run(&args),
         Command::Bound(args) => bound::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Calibrate(args) => calibrate::run(&args),
         Command::Completions(args) => completions::run(&args),
         Command::Man(args) => man::run(&args),
     }

@@ -1,4 +1,5 @@
-//! `pulsetrack sim --scene FILE [--tracker NAME] [--trials N] [--seed S] [--json] [--plot DIR]`:
+//! `pulsetrack sim --scene FILE [--tracker NAME] [--trials N] [--seed S] [--json] [--plot DIR]
+//! [--calibration FILE]`:
 //! run whole trials on the simulated bench in lockstep (no clock, no threads) and report
 //! what the tracker located against the true artery.
 //!
@@ -52,6 +53,31 @@ pub struct Args {
     /// default: the shipped simulator configuration.
     #[arg(long)]
     pub config: Option<PathBuf>,
+    /// A calibration file (as `pulsetrack calibrate` writes it): its tactile calibration is
+    /// applied to every trial as the daemon applies it. Default: none (the array as
+    /// configured, whatever errors the scene gives it).
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
+}
+
+/// The tactile calibration in `path`'s calibration file; refused if it has none, or one that
+/// did not pass.
+fn tactile_calibration(path: &Path) -> Result<control::calibration::TactileCalibration, String> {
+    let file = config::calibration_file::load(path)
+        .map_err(|e| e.to_string())?
+        .ok_or_else(|| format!("{}: no such file", path.display()))?;
+    let record = file
+        .value
+        .tactile
+        .ok_or_else(|| format!("{}: holds no tactile calibration", path.display()))?;
+    if !record.passed {
+        return Err(format!(
+            "{}: its tactile calibration of {} did not pass its checks",
+            path.display(),
+            record.measured_utc
+        ));
+    }
+    Ok(record.calibration)
 }
 
 #[derive(Debug, Serialize)]
@@ -88,11 +114,22 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
     }
     let config = load_config(args.config.as_deref())?;
     let scene = sim::scene::load(&args.scene, None).map_err(|e| e.to_string())?;
+    let calibration = args
+        .calibration
+        .as_deref()
+        .map(tactile_calibration)
+        .transpose()?;
     let mut trials = Vec::with_capacity(args.trials as usize);
     for i in 0..args.trials {
         let seed = args.seed.wrapping_add(i as u64);
-        let trial = sim::runner::run_trial(&scene, &config, &args.tracker, seed)
-            .map_err(|e| e.to_string())?;
+        let trial = sim::runner::run_trial_calibrated(
+            &scene,
+            &config,
+            &args.tracker,
+            seed,
+            calibration.as_ref(),
+        )
+        .map_err(|e| e.to_string())?;
         if args.events && !args.events_text {
             for event in &trial.log {
                 eprintln!("{}", event_line(i + 1, seed, event)?);

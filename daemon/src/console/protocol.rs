@@ -23,15 +23,18 @@ pub enum Stream {
     Faults,
     /// Trial start and end (with the summary).
     Trials,
+    /// Calibration recordings: started, and their results.
+    Calibration,
 }
 
 impl Stream {
-    pub const ALL: [Stream; 5] = [
+    pub const ALL: [Stream; 6] = [
         Stream::State,
         Stream::Tactile,
         Stream::Detections,
         Stream::Faults,
         Stream::Trials,
+        Stream::Calibration,
     ];
 }
 
@@ -67,6 +70,8 @@ pub enum Verb {
         tactile_every: u32,
     },
     Unsubscribe,
+    /// A step of a rig calibration procedure.
+    Calibrate(CalibrateStep),
     /// Test hooks, refused unless `console.debug_hooks` is set.
     Debug(DebugAction),
 }
@@ -75,6 +80,43 @@ pub enum Verb {
 pub enum DebugAction {
     /// Drop tactile frames at the loop for this long (daemon clock), as if the stream died.
     SilenceTactile { duration_s: f64 },
+    /// The simulator only: take the array off the tissue onto the calibration bench under a
+    /// uniform load per element, N (0: nothing on it), or (`None`) put it back.
+    PlaceArray { load_per_element_n: Option<f64> },
+}
+
+/// A step of a calibration procedure (docs/rig-bring-up.md).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CalibrateStep {
+    /// Record the tactile array with nothing touching it: each element's offset and noise.
+    TactileTare { duration_s: Option<f64> },
+    /// Record it under a known uniform load and finish its calibration (after a tare).
+    TactileLoad {
+        load_per_element_n: f64,
+        duration_s: Option<f64>,
+    },
+}
+
+impl CalibrateStep {
+    pub fn procedure(&self) -> &'static str {
+        match self {
+            CalibrateStep::TactileTare { .. } | CalibrateStep::TactileLoad { .. } => "tactile",
+        }
+    }
+
+    pub fn step(&self) -> &'static str {
+        match self {
+            CalibrateStep::TactileTare { .. } => "tare",
+            CalibrateStep::TactileLoad { .. } => "load",
+        }
+    }
+
+    pub fn duration_s(&self) -> Option<f64> {
+        match self {
+            CalibrateStep::TactileTare { duration_s }
+            | CalibrateStep::TactileLoad { duration_s, .. } => *duration_s,
+        }
+    }
 }
 
 impl Verb {
@@ -95,6 +137,7 @@ impl Verb {
             Verb::Reset => "reset",
             Verb::Subscribe { .. } => "subscribe",
             Verb::Unsubscribe => "unsubscribe",
+            Verb::Calibrate(_) => "calibrate",
             Verb::Debug(_) => "debug",
         }
     }
@@ -135,6 +178,30 @@ impl Verb {
             Verb::Debug(DebugAction::SilenceTactile { duration_s }) => {
                 put("action", "silence_tactile".into());
                 put("duration_s", (*duration_s).into());
+            }
+            Verb::Debug(DebugAction::PlaceArray { load_per_element_n }) => {
+                put("action", "place_array".into());
+                put(
+                    "on",
+                    if load_per_element_n.is_some() {
+                        "bench"
+                    } else {
+                        "tissue"
+                    }
+                    .into(),
+                );
+                put("load_per_element_n", (*load_per_element_n).into());
+            }
+            Verb::Calibrate(c) => {
+                put("procedure", c.procedure().into());
+                put("step", c.step().into());
+                put("duration_s", c.duration_s().into());
+                if let CalibrateStep::TactileLoad {
+                    load_per_element_n, ..
+                } = c
+                {
+                    put("load_per_element_n", (*load_per_element_n).into());
+                }
             }
             Verb::Status
             | Verb::Enable
@@ -178,7 +245,7 @@ fn check_label(id: u64, label: &str) -> Result<(), RequestError> {
 }
 
 /// Every verb the daemon knows, for error messages and the CLI.
-pub const VERBS: [&str; 16] = [
+pub const VERBS: [&str; 17] = [
     "status",
     "enable",
     "disable",
@@ -194,6 +261,7 @@ pub const VERBS: [&str; 16] = [
     "reset",
     "subscribe",
     "unsubscribe",
+    "calibrate",
     "debug",
 ];
 
@@ -398,6 +466,7 @@ pub fn parse_request(line: &[u8], limits: &ParseLimits) -> Result<Request, Reque
             };
             Verb::Track { length_m, label }
         }
+        "calibrate" => Verb::Calibrate(calibrate_request::parse(&mut args)?),
         "subscribe" => {
             let streams = match args.obj.remove("streams") {
                 None => Stream::ALL.to_vec(),
@@ -406,7 +475,7 @@ pub fn parse_request(line: &[u8], limits: &ParseLimits) -> Result<Request, Reque
                         Some(id),
                         ErrorCode::BadArgument,
                         format!(
-                            "`streams` must be a list of state, tactile, detections, faults, trials: {e}"
+                            "`streams` must be a list of state, tactile, detections, faults, trials, calibration: {e}"
                         ),
                     )
                 })?,
@@ -431,11 +500,12 @@ pub fn parse_request(line: &[u8], limits: &ParseLimits) -> Result<Request, Reque
                     return Err(err(
                         Some(id),
                         ErrorCode::BadArgument,
-                        "`debug` needs `action`: \"silence_tactile\"",
+                        "`debug` needs `action`: \"silence_tactile\" or \"place_array\"",
                     ));
                 }
             };
             match action.as_str() {
+                "place_array" => Verb::Debug(calibrate_request::place_array(&mut args)?),
                 "silence_tactile" => {
                     let d = args.number("duration_s", None)?;
                     if !(d > 0.0 && d <= 3600.0) {
@@ -451,7 +521,9 @@ pub fn parse_request(line: &[u8], limits: &ParseLimits) -> Result<Request, Reque
                     return Err(err(
                         Some(id),
                         ErrorCode::BadArgument,
-                        format!("unknown debug action {other:?} (known: silence_tactile)"),
+                        format!(
+                            "unknown debug action {other:?} (known: silence_tactile, place_array)"
+                        ),
                     ));
                 }
             }
@@ -467,6 +539,9 @@ pub fn parse_request(line: &[u8], limits: &ParseLimits) -> Result<Request, Reque
     args.no_more()?;
     Ok(Request { id, verb })
 }
+
+#[path = "calibrate_request.rs"]
+mod calibrate_request;
 
 struct Args {
     id: u64,

@@ -17,6 +17,7 @@ use serde_json::Value;
 use crate::recording::messages::{TactileSample, TrackerCall, TrackerInputRecord};
 use crate::recording::recover::ReadBack;
 use crate::recording::topics::Topic;
+use control::calibration::TactileCalibration;
 
 /// One input to the tracker, in recorded order.
 #[derive(Debug, Clone, PartialEq)]
@@ -41,6 +42,9 @@ pub struct Recorded {
     pub config: Option<config::Config>,
     /// The located points the live tracker reported, in order.
     pub located: Vec<Located>,
+    /// The tactile calibration in use live (the frames in `steps` are already corrected by
+    /// it; trackers are built with its unusable elements skipped).
+    pub tactile_calibration: Option<TactileCalibration>,
     /// Frames missing between two frames given to the tracker (a lagging recorder drops
     /// streamed samples rather than stall); a replay with gaps may differ from the trial.
     pub missing_frames: u64,
@@ -199,6 +203,30 @@ pub fn recorded(back: &ReadBack) -> Result<Recorded, ReplayError> {
     }
     let trial = back.metadata_named("trial");
     let tracker = trial.and_then(|t| t.get("tracker")).cloned();
+    // The tactile calibration the live tracker read the array through: replay feeds the
+    // frames through it too (a trial from before calibrations has none).
+    let tactile_calibration = match trial.and_then(|t| t.get("tactile_calibration")) {
+        None => None,
+        Some(j) => {
+            let c: TactileCalibration =
+                serde_json::from_str(j).map_err(|e| ReplayError::BadMessage {
+                    topic: "metadata trial",
+                    index: 0,
+                    reason: format!("tactile_calibration: {e}"),
+                })?;
+            c.validate().map_err(|e| ReplayError::BadMessage {
+                topic: "metadata trial",
+                index: 0,
+                reason: format!("tactile_calibration: {e}"),
+            })?;
+            for step in &mut steps {
+                if let Step::Frame { frame, .. } = step {
+                    *frame = c.correct_frame(frame);
+                }
+            }
+            Some(c)
+        }
+    };
     let config = back
         .metadata_named("config")
         .and_then(|c| c.get("json"))
@@ -209,6 +237,7 @@ pub fn recorded(back: &ReadBack) -> Result<Recorded, ReplayError> {
         config,
         located,
         missing_frames,
+        tactile_calibration,
     })
 }
 
@@ -315,8 +344,13 @@ pub fn replay_with(
 ) -> Result<Replayed, String> {
     let c = rec.config.as_ref().unwrap_or(fallback);
     let params: TrackerParams = c.tracker.params;
-    let mut tracker =
-        control::tracker::build(name, &params, &c.sensor).map_err(|e| e.to_string())?;
+    let sensor = match &rec.tactile_calibration {
+        Some(cal) => cal
+            .geometry(&c.sensor)
+            .map_err(|e| format!("the recorded tactile calibration: {e}"))?,
+        None => c.sensor,
+    };
+    let mut tracker = control::tracker::build(name, &params, &sensor).map_err(|e| e.to_string())?;
     Ok(replay(&rec.steps, tracker.as_mut()))
 }
 

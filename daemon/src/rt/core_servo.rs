@@ -247,14 +247,15 @@ impl Servo for CoreServo {
     }
 }
 
-/// A fresh tracker per trial, by the configured name. The name and parameters are checked
-/// once here, so a bad config fails at start-up rather than at the first mark.
+/// A fresh tracker per trial, by the configured name, for the array as calibrated then. The
+/// name and parameters are checked once here (with the configured array), so a bad config
+/// fails at start-up rather than at the first mark.
 pub fn tracker_factory(c: &Config) -> Result<TrackerFactory, String> {
     let name = c.tracker.name.clone();
     let params = c.tracker.params;
     let sensor = c.sensor;
     control::tracker::build(&name, &params, &sensor).map_err(|e| format!("tracker: {e}"))?;
-    Ok(Box::new(move || {
-        control::tracker::build(&name, &params, &sensor).map_err(|e| e.to_string())
+    Ok(Box::new(move |sensor: &control::sensor::ArrayGeometry| {
+        control::tracker::build(&name, &params, sensor).map_err(|e| e.to_string())
     }))
 }

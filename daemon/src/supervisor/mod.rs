@@ -6,6 +6,7 @@
 //! that what is acknowledged is on disk first.
 
 mod artery_scene;
+pub mod calibration;
 mod live_view;
 mod report;
 mod requests;
@@ -73,8 +74,9 @@ impl std::fmt::Debug for SupervisorInput {
     }
 }
 
-/// Builds a fresh tracker for each trial.
-pub type TrackerFactory = Box<dyn Fn() -> Result<Box<dyn Tracker>, String> + Send>;
+/// Builds a fresh tracker for each trial, for the array as calibrated.
+pub type TrackerFactory =
+    Box<dyn Fn(&control::sensor::ArrayGeometry) -> Result<Box<dyn Tracker>, String> + Send>;
 
 /// The supervisor's settings, from config.
 #[derive(Debug, Clone)]
@@ -218,6 +220,8 @@ pub struct Supervisor {
     live_dropped_logged: u64,
     /// The daemon's own log lines, for `/log` (`service::log_forward`).
     log_lines: crossbeam_channel::Receiver<ForwardedLine>,
+    /// The rig's calibration: the tactile correction in use and the procedures' recordings.
+    calibration: calibration::Calibration,
 }
 
 impl std::fmt::Debug for Supervisor {
@@ -249,6 +253,7 @@ impl Supervisor {
         info: BackendInfo,
         judge: Option<Box<dyn PathJudge>>,
         factory: TrackerFactory,
+        calibration: calibration::Calibration,
     ) -> Self {
         links
             .shared_state
@@ -284,6 +289,7 @@ impl Supervisor {
             live_beats: 0,
             live_dropped_logged: 0,
             log_lines: log_forward::connect(LOG_LINES_QUEUE),
+            calibration,
         }
     }
 
@@ -567,6 +573,8 @@ impl Supervisor {
             seeds: self.trial.as_ref().map(|t| t.seeds()).unwrap_or(0),
             seeds_needed: 2,
             debug_hooks: self.s.debug_hooks,
+            trial_open: self.trial.is_some(),
+            calibrating: self.calibration.recording(),
         }
     }
 
@@ -582,7 +590,7 @@ impl Supervisor {
         if self.trial.is_some() {
             self.end_trial(TrialEnd::Abandoned);
         }
-        let tracker = match (self.factory)() {
+        let tracker = match (self.factory)(&self.calibration.sensor()) {
             Ok(tr) => tr,
             Err(e) => {
                 tracing::error!("building tracker {}: {e}", self.s.tracker_name);
@@ -600,6 +608,16 @@ impl Supervisor {
         trial_meta.insert("tracker".to_string(), tracker.name().to_string());
         trial_meta.insert("backend".to_string(), self.info.kind.to_string());
         trial_meta.insert("context".to_string(), self.s.trial_context.to_string());
+        trial_meta.insert(
+            "calibration".to_string(),
+            self.calibration.describe().to_string(),
+        );
+        if let Some(cal) = self.calibration.tactile()
+            && let Ok(j) = serde_json::to_string(&calibration::json_safe(cal))
+        {
+            // What replay needs to feed the frames through as the tracker saw them.
+            trial_meta.insert("tactile_calibration".to_string(), j);
+        }
         trial_meta.insert("started_t_s".to_string(), json!(t).to_string());
         trial_meta.insert("epoch_offset_ns".to_string(), epoch_offset_ns.to_string());
         trial_meta.insert(
@@ -1033,6 +1051,7 @@ impl Supervisor {
 
     fn on_tick(&mut self) {
         self.links.heartbeat.fetch_add(1, Ordering::Relaxed);
+        self.calibration_tick();
         self.forward_log_lines();
         let now = Instant::now();
         let timeout = self.s.command_timeout;
@@ -1158,6 +1177,7 @@ impl Supervisor {
         }
         if let Value::Object(o) = &mut v {
             o.insert("live".into(), self.live_status());
+            o.insert("calibration".into(), self.calibration.describe());
         }
         v
     }

@@ -124,6 +124,12 @@ impl Supervisor {
                 self.reply_ok(id, to, json!({}), true);
             }
             Verb::Stop => {
+                self.calibration_stop();
+                if !self.state.powered() {
+                    // Only a calibration recording was running (the table admits nothing
+                    // else here): there is no arm to hold.
+                    return self.reply_ok(id, to, json!({}), false);
+                }
                 match self.state {
                     OpState::Tracking | OpState::Paused => {
                         self.tracker_stop();
@@ -148,6 +154,10 @@ impl Supervisor {
                     Some((id, to)),
                 );
             }
+            Verb::Debug(DebugAction::PlaceArray { load_per_element_n }) => {
+                self.place_array(id, to, load_per_element_n)
+            }
+            Verb::Calibrate(step) => self.calibrate(id, to, step),
         }
     }
 

@@ -61,6 +61,10 @@ pub struct Context {
     pub seeds_needed: usize,
     /// `console.debug_hooks`.
     pub debug_hooks: bool,
+    /// A trial is open (a seed is marked, or a track runs).
+    pub trial_open: bool,
+    /// A calibration recording is under way.
+    pub calibrating: bool,
 }
 
 /// Accept `verb` in `state`, or say why not.
@@ -68,7 +72,23 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
     use OpState as S;
     let s = state.as_str();
     let refuse = |why: &str| Err(format!("cannot {} while {s}: {why}", verb.name()));
+    let moves_or_marks = matches!(
+        verb,
+        Verb::Home | Verb::Jog { .. } | Verb::Move { .. } | Verb::Mark | Verb::Track { .. }
+    );
+    if ctx.calibrating && moves_or_marks {
+        return refuse("a calibration recording is under way; wait for it or stop it");
+    }
     match verb {
+        Verb::Calibrate(_) => match state {
+            S::Disabled | S::Holding | S::Done if ctx.trial_open => {
+                refuse("a trial is open (a seed is marked); stop it first")
+            }
+            S::Disabled | S::Holding | S::Done => Ok(()),
+            S::Fault => refuse("a fault is latched; reset first"),
+            S::Moving => refuse("wait for the move to settle"),
+            S::Seeding | S::Tracking | S::Paused => refuse("a trial is running; stop it first"),
+        },
         Verb::Status | Verb::Subscribe { .. } | Verb::Unsubscribe | Verb::Estop => Ok(()),
         Verb::Debug(_) => {
             if ctx.debug_hooks {
@@ -138,6 +158,7 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
             _ => refuse("nothing is paused"),
         },
         Verb::Stop => match state {
+            _ if ctx.calibrating && state != S::Fault => Ok(()),
             S::Moving | S::Seeding | S::Tracking | S::Paused => Ok(()),
             S::Holding | S::Done => refuse("nothing is moving"),
             S::Disabled => refuse("power is off"),
@@ -169,7 +190,7 @@ mod tests {
         Context {
             seeds,
             seeds_needed: 2,
-            debug_hooks: false,
+            ..Default::default()
         }
     }
 
@@ -261,5 +282,41 @@ mod tests {
         )
         .expect_err("refused");
         assert!(r.contains("debug_hooks"), "{r}");
+    }
+
+    #[test]
+    fn a_calibration_records_only_at_rest_outside_a_trial_and_holds_the_arm_still() {
+        use OpState::*;
+        let tare = Verb::Calibrate(crate::console::protocol::CalibrateStep::TactileTare {
+            duration_s: None,
+        });
+        assert_eq!(accepted(&tare, 0), vec![Disabled, Holding, Done]);
+        let open = Context {
+            trial_open: true,
+            ..ctx(1)
+        };
+        let r = admit(Holding, &tare, &open).expect_err("a seed is marked");
+        assert!(r.contains("trial is open"), "{r}");
+        // While it records, nothing moves the arm or marks, and stop ends it.
+        let recording = Context {
+            calibrating: true,
+            ..ctx(0)
+        };
+        for verb in [
+            Verb::Home,
+            Verb::Mark,
+            Verb::Move {
+                x_m: 0.0,
+                z_m: 0.0,
+                speed_m_s: None,
+            },
+        ] {
+            let r = admit(Holding, &verb, &recording).expect_err("recording");
+            assert!(r.contains("calibration recording"), "{r}");
+        }
+        for s in [Disabled, Holding, Done] {
+            assert!(admit(s, &Verb::Stop, &recording).is_ok(), "{s:?}");
+            assert!(admit(s, &Verb::Estop, &recording).is_ok(), "{s:?}");
+        }
     }
 }

@@ -6,6 +6,7 @@ use super::*;
 impl Supervisor {
     pub(super) fn on_frame(&mut self, f: StampedFrame) {
         self.frames_seen += 1;
+        self.calibration_frame(&f.frame);
         if let Some(s) = f.shortfall
             && f.motion_seq == self.motion_seq
         {
@@ -37,11 +38,16 @@ impl Supervisor {
         if !fed {
             return;
         }
+        // The tracker reads the array as calibrated; the recording keeps the raw frame.
+        let corrected = self
+            .calibration
+            .tactile()
+            .map(|c| c.correct_frame(&f.frame));
         let Some(tracker) = self.tracker.as_mut() else {
             return;
         };
         let out = tracker.step(&TrackerInput {
-            frame: &f.frame,
+            frame: corrected.as_ref().unwrap_or(&f.frame),
             sensor: f.sensor,
             settled,
             loaded_sensor: f.loaded_sensor,

@@ -115,6 +115,7 @@ pub fn backend_with_wall(wall_x_m: Option<f64>) -> Backend {
             scene: None,
         },
         judge: None,
+        array_bench: None,
     }
 }
 

@@ -59,6 +59,13 @@ pub fn write_config(dir: &Path, s: &Setup) -> PathBuf {
             &format!("dir: {:?},", trials.display().to_string()),
         )
         .replace(
+            "file: \"{state}/sim-calibration.ron\",",
+            &format!(
+                "file: {:?},",
+                dir.join("calibration.ron").display().to_string()
+            ),
+        )
+        .replace(
             "time_scale: 1.0,",
             &format!("time_scale: {:?},", s.time_scale),
         )

@@ -1,0 +1,243 @@
+//! `pulsetrack calibrate PROCEDURE STEP`: runs one step of a rig calibration procedure on the
+//! daemon and waits for its result (docs/rig-bring-up.md). The daemon records, judges and
+//! writes the calibration file; this prints what it found.
+
+use std::process::ExitCode;
+use std::time::Duration;
+
+use serde_json::{Value, json};
+
+use crate::cli::console::{Conn, Plain};
+use crate::cli::failure;
+use crate::cli::stdout::outln;
+use crate::console::client::Client;
+
+#[derive(Debug, clap::Args)]
+pub struct CalibrateArgs {
+    #[command(subcommand)]
+    pub procedure: Procedure,
+}
+
+/// The procedures of issue 15; those not built yet are refused by the daemon, saying so.
+#[derive(Debug, clap::Subcommand)]
+pub enum Procedure {
+    /// The tactile array: tare with nothing on it, then a known uniform load.
+    Tactile {
+        #[command(subcommand)]
+        step: TactileStep,
+    },
+    /// The pivot (incision) from several rod poses (not built yet).
+    Pivot(Plain),
+    /// The tissue frame from touched surface points (not built yet).
+    Tissue(Plain),
+    /// Encoder homing and the joint stops (not built yet).
+    Joints(Plain),
+}
+
+#[derive(Debug, clap::Subcommand)]
+pub enum TactileStep {
+    /// Record the array with nothing touching it: each element's offset and noise.
+    Tare {
+        #[command(flatten)]
+        conn: Conn,
+        /// Seconds to record (default: the config's calibration.tactile_recording_s).
+        #[arg(long, value_name = "S")]
+        duration_s: Option<f64>,
+    },
+    /// Record it under a known uniform load, finish the calibration, and (if it passes)
+    /// write it to the calibration file and use it.
+    Load {
+        #[command(flatten)]
+        conn: Conn,
+        /// The known force on each element, N (a flat plate's weight over the elements it
+        /// rests on, or a press to a known force).
+        #[arg(long, value_name = "N")]
+        load_per_element_n: f64,
+        /// Seconds to record (default: the config's calibration.tactile_recording_s).
+        #[arg(long, value_name = "S")]
+        duration_s: Option<f64>,
+    },
+}
+
+/// The request the command sends, and where to send it.
+pub fn request(p: &Procedure) -> (&Conn, Value) {
+    match p {
+        Procedure::Tactile {
+            step: TactileStep::Tare { conn, duration_s },
+        } => (
+            conn,
+            json!({"procedure": "tactile", "step": "tare", "duration_s": duration_s}),
+        ),
+        Procedure::Tactile {
+            step:
+                TactileStep::Load {
+                    conn,
+                    load_per_element_n,
+                    duration_s,
+                },
+        } => (
+            conn,
+            json!({"procedure": "tactile", "step": "load",
+                "load_per_element_n": load_per_element_n, "duration_s": duration_s}),
+        ),
+        Procedure::Pivot(p) => (&p.conn, json!({"procedure": "pivot"})),
+        Procedure::Tissue(p) => (&p.conn, json!({"procedure": "tissue"})),
+        Procedure::Joints(p) => (&p.conn, json!({"procedure": "joints"})),
+    }
+}
+
+const NAME: &str = "calibrate";
+
+pub fn run(args: &CalibrateArgs) -> ExitCode {
+    let (conn, req) = request(&args.procedure);
+    let mut c = match conn.connect() {
+        Ok(c) => c,
+        Err(e) => return failure::report(NAME, conn.json, failure::Failure::Unreachable, &e),
+    };
+    match run_on(&mut c, &req, conn.json) {
+        Ok(code) => code,
+        Err(e) => failure::failed(NAME, conn.json, &e),
+    }
+}
+
+fn run_on(c: &mut Client, req: &Value, raw: bool) -> Result<ExitCode, String> {
+    const TIMEOUT: Duration = Duration::from_secs(15);
+    c.call(
+        "subscribe",
+        json!({"streams": ["calibration", "faults"], "tactile_every": 1}),
+        TIMEOUT,
+    )
+    .map_err(|e| e.to_string())?;
+    let reply = c
+        .request(NAME, req.clone(), TIMEOUT)
+        .map_err(|e| e.to_string())?;
+    if reply["ok"] != Value::Bool(true) {
+        if raw {
+            outln!("{reply}");
+        } else {
+            eprintln!(
+                "calibrate: refused: {} [{}]",
+                reply["reason"].as_str().unwrap_or("?"),
+                reply["error"].as_str().unwrap_or("?")
+            );
+        }
+        return Ok(ExitCode::FAILURE);
+    }
+    let step = reply["step"].as_str().unwrap_or("?").to_string();
+    // The recording's own length plus room for a slow simulator.
+    let wait = Duration::from_secs_f64(reply["duration_s"].as_f64().unwrap_or(60.0) * 20.0 + 30.0);
+    if !raw {
+        eprintln!(
+            "recording {} frames ({} s) ...",
+            reply["frames"], reply["duration_s"]
+        );
+    }
+    let deadline = std::time::Instant::now() + wait;
+    loop {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        if left.is_zero() {
+            return Err(format!("no result from the daemon in {} s", wait.as_secs()));
+        }
+        let Some(e) = c.next_event(left).map_err(|e| e.to_string())? else {
+            continue;
+        };
+        if e["event"] == "fault" {
+            return Err(format!(
+                "the daemon faulted: {}",
+                e["reason"].as_str().unwrap_or("?")
+            ));
+        }
+        if e["event"] != "calibration" || e["step"] != step.as_str() {
+            continue;
+        }
+        match e["phase"].as_str() {
+            Some("started") | None => continue,
+            Some("failed") => {
+                if raw {
+                    outln!("{e}");
+                } else {
+                    eprintln!(
+                        "calibrate tactile {step}: failed: {}",
+                        e["reason"].as_str().unwrap_or("?")
+                    );
+                }
+                return Ok(ExitCode::FAILURE);
+            }
+            Some(_) => {
+                if raw {
+                    outln!("{e}");
+                } else {
+                    print_result(&e);
+                }
+                let ok = step == "tare" || e["applied"] == Value::Bool(true);
+                return Ok(if ok {
+                    ExitCode::SUCCESS
+                } else {
+                    ExitCode::FAILURE
+                });
+            }
+        }
+    }
+}
+
+fn num(v: &Value) -> f64 {
+    v.as_f64().unwrap_or(f64::NAN)
+}
+
+/// Millinewtons for people.
+fn print_result(e: &Value) {
+    if e["step"] == "tare" {
+        outln!(
+            "tare: {} frames; element: offset mN, noise SD mN",
+            e["frames"]
+        );
+        let offsets = e["offset_n"].as_array().cloned().unwrap_or_default();
+        let noise = e["noise_sd_n"].as_array().cloned().unwrap_or_default();
+        for (i, (o, n)) in offsets.iter().zip(&noise).enumerate() {
+            outln!("  {i:2}: {:8.2} {:7.2}", num(o) * 1e3, num(n) * 1e3);
+        }
+        outln!("now put the known load on the array and run `pulsetrack calibrate tactile load`");
+        return;
+    }
+    outln!(
+        "tactile calibration under {:.1} mN per element; element: gain ± SE, offset mN, noise SD mN, status",
+        num(&e["load_per_element_n"]) * 1e3
+    );
+    for el in e["elements"].as_array().into_iter().flatten() {
+        outln!(
+            "  {:2}: {:6.3} ± {:5.3} {:8.2} {:7.2} {}",
+            el["element"],
+            num(&el["gain"]),
+            num(&el["gain_standard_error"]),
+            num(&el["offset_n"]) * 1e3,
+            num(&el["noise_sd_n"]) * 1e3,
+            el["status"].as_str().unwrap_or("?")
+        );
+    }
+    for c in e["checks"].as_array().into_iter().flatten() {
+        outln!(
+            "  check {}: {:.4} {} {} -> {}",
+            c["quantity"].as_str().unwrap_or("?"),
+            num(&c["value"]),
+            if c["bound"] == "at_least" { ">=" } else { "<=" },
+            num(&c["limit"]),
+            if c["passed"] == Value::Bool(true) {
+                "pass"
+            } else {
+                "FAIL"
+            }
+        );
+    }
+    if e["applied"] == Value::Bool(true) {
+        outln!(
+            "passed: written to {} and in use; unusable elements {}",
+            e["file"].as_str().unwrap_or("?"),
+            e["unusable_elements"]
+        );
+    } else {
+        outln!(
+            "NOT applied: {}",
+            e["reason"].as_str().unwrap_or("a check failed")
+        );
+    }
+}
