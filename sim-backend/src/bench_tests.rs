@@ -437,7 +437,10 @@ fn the_array_on_the_bench_reads_its_errors_and_the_calibration_recovers_them() {
     let corrected = cal.correct_frame(&frame);
     for (e, (got, want)) in corrected.force_n.iter().zip(clean).enumerate() {
         if !f.dead_elements.contains(&e) {
-            assert!((got - want).abs() < 0.06, "element {e}: {got} against {want}");
+            assert!(
+                (got - want).abs() < 0.06,
+                "element {e}: {got} against {want}"
+            );
         }
     }
 }

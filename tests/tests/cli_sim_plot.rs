@@ -48,3 +48,40 @@ fn a_tracker_that_never_seeded_is_said_so_and_the_results_still_print() {
         "{stdout}"
     );
 }
+
+/// The ten elements' trace is band-passed as in the seed's Fig. 2 unless asked raw, and its
+/// title says which.
+#[test]
+fn the_element_trace_is_band_passed_unless_asked_raw() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let plot = |sub: &str, raw: bool| {
+        let plots = dir.path().join(sub);
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_pt-console"));
+        cmd.args([
+            "sim",
+            "--scene",
+            "seed-radial-wrist.ron",
+            "--tracker",
+            "seed2002",
+            "--plot",
+        ])
+        .arg(&plots)
+        .stdin(Stdio::null());
+        if raw {
+            cmd.arg("--plot-raw");
+        }
+        let out = cmd.output().expect("run pt-console sim");
+        assert_eq!(out.status.code(), Some(0), "{out:?}");
+        std::fs::read_to_string(plots.join("elements_4s.svg")).expect("the trace")
+    };
+    let filtered = plot("filtered", false);
+    assert!(filtered.contains("band-passed") && !filtered.contains("as read"));
+    let raw = plot("raw", true);
+    assert!(raw.contains("as read") && !raw.contains("band-passed"));
+    // --plot-raw alone is a usage error: there is no plot to draw it in.
+    let out = Command::new(env!("CARGO_BIN_EXE_pt-console"))
+        .args(["sim", "--scene", "seed-radial-wrist.ron", "--plot-raw"])
+        .output()
+        .expect("run");
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+}

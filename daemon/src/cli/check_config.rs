@@ -1,11 +1,13 @@
-//! `pulsetrack check-config FILE`: load and validate a daemon configuration, a scene or a
-//! FEM model file, and what it refers to; print every problem with file, line and field.
+//! `pulsetrack check-config FILE`: load and validate a daemon configuration, a scene, a
+//! FEM model or a calibration file, and what it refers to; print every problem with file, line and field.
 //!
 //! The kind of file is its top-level RON struct name (`Config(`, `Scene(`, `FemModel(`); a
 //! file without one is tried as each kind. Beyond parsing and validation: a simulator
 //! configuration's scene must exist and pass the scene checks; a scene's artery path must be
 //! buildable and, for an FEM pressure kernel, its mesh too (meshed, not solved); a FEM
-//! model's mesh must be buildable (its Gmsh file, if it names one, read and checked).
+//! model's mesh must be buildable (its Gmsh file, if it names one, read and checked); a
+//! configuration's calibration file, where it exists, must load as the daemon would load it.
+//! A calibration file on its own is checked too.
 
 use crate::cli::stdout::outln;
 
@@ -34,9 +36,11 @@ enum Kind {
     Config,
     Scene,
     FemModel,
+    /// The rig's calibration file (written by the daemon; no struct name).
+    Calibration,
 }
 
-const KINDS: [Kind; 3] = [Kind::Config, Kind::Scene, Kind::FemModel];
+const KINDS: [Kind; 4] = [Kind::Config, Kind::Scene, Kind::FemModel, Kind::Calibration];
 
 pub fn run(args: &Args) -> ExitCode {
     match check(&args.file) {
@@ -124,7 +128,49 @@ fn check_as(kind: Kind, path: &Path, source: &str) -> Result<String, ConfigError
                 })?;
                 summary.push_str(&format!("; scene {:?} ({scene_origin}) ok", scene.name));
             }
+            // The calibration file the daemon would load with it, where it exists.
+            let file = crate::runtime_paths::expand(&loaded.value.calibration.file);
+            let file = match &loaded.dir {
+                Some(d) if file.is_relative() => d.join(file),
+                _ => file,
+            };
+            match config::calibration_file::load(&file) {
+                Ok(None) => summary.push_str(&format!(
+                    "; no calibration file at {} (the array is read as configured)",
+                    file.display()
+                )),
+                Ok(Some(c)) => summary.push_str(&format!(
+                    "; calibration {} ok{}",
+                    file.display(),
+                    if c.value.tactile.is_some() {
+                        " (tactile)"
+                    } else {
+                        ""
+                    }
+                )),
+                Err(e) => {
+                    return Err(located(
+                        &origin,
+                        source,
+                        "calibration.file",
+                        format!("the calibration file cannot be used:\n{e}"),
+                    ));
+                }
+            }
             Ok(summary)
+        }
+        Kind::Calibration => {
+            let loaded = load_file::<config::calibration_file::CalibrationFile>(path)?;
+            Ok(format!(
+                "{origin}: ok (calibration file version {}{})",
+                loaded.value.version,
+                loaded
+                    .value
+                    .tactile
+                    .as_ref()
+                    .map(|t| format!(", tactile of {}", t.measured_utc))
+                    .unwrap_or_default()
+            ))
         }
         Kind::Scene => {
             let loaded = load_file::<Scene>(path)?;
@@ -260,5 +306,39 @@ mod tests {
         assert_eq!(top_level_name("(version: 1)"), None);
         assert_eq!(top_level_name(""), None);
         assert_eq!(top_level_name("// only a comment"), None);
+    }
+
+    /// A config's calibration file is checked with it, and on its own.
+    #[test]
+    fn a_calibration_file_is_checked_with_its_config_and_alone() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let (_, sim) = config::shipped::SIM_CONFIG;
+        let text = sim.replace(
+            "file: \"{state}/sim-calibration.ron\",",
+            "file: \"cal.ron\",",
+        );
+        assert_ne!(
+            text, sim,
+            "the shipped sim config names its calibration file"
+        );
+        let config_path = dir.path().join("daemon.ron");
+        std::fs::write(&config_path, &text).expect("write");
+        let summary = check(&config_path).expect("no calibration file yet");
+        assert!(summary.contains("no calibration file"), "{summary}");
+
+        let cal = dir.path().join("cal.ron");
+        config::calibration_file::save(&cal, &config::calibration_file::CalibrationFile::default())
+            .expect("save");
+        let alone = check(&cal).expect("a calibration file alone");
+        assert!(alone.contains("calibration file version 1"), "{alone}");
+        assert!(check(&config_path).expect("ok").contains("calibration"));
+
+        std::fs::write(&cal, "(version: 1, tactile: (measured_utc: 5))").expect("write");
+        let e = check(&config_path).expect_err("a broken calibration file");
+        let e = e.to_string();
+        assert!(
+            e.contains("calibration.file") && e.contains("cal.ron"),
+            "{e}"
+        );
     }
 }

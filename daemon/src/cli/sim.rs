@@ -41,6 +41,10 @@ pub struct Args {
     /// Write plots (PNG and SVG) into this directory.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// With --plot: draw the ten elements' trace as read (each about its own mean) instead
+    /// of band-passed as in the seed's Fig. 2.
+    #[arg(long, requires = "plot")]
+    pub plot_raw: bool,
     /// Print every tracker event of every trial on stderr as JSON lines (one object each:
     /// kind and fields, believed and true sensor positions in metres; docs/sim-json.md),
     /// and each trial's end as a `trial` object, so that every stderr line is JSON.
@@ -159,7 +163,13 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
     // The results first: a chart that cannot be drawn must not lose them.
     let plotted = args.plot.as_ref().map(|dir| {
         let path = ArteryPath::from_spec(&scene.artery.path).map_err(|e| e.to_string())?;
-        plot_trials(&config, &scene, &args.tracker, &path, &trials, dir).map_err(|e| e.to_string())
+        let trace = if args.plot_raw {
+            Trace::Raw
+        } else {
+            Trace::BandPassed
+        };
+        plot_trials(&config, &scene, &args.tracker, &path, &trials, dir, trace)
+            .map_err(|e| e.to_string())
     });
     if args.json {
         let report = Report {
@@ -288,6 +298,15 @@ fn figure_of(scene: &Scene, tracker: &str, trials: &[TrialResult]) -> String {
     format!("{}, {tracker}, {seeds}", scene.name)
 }
 
+/// How the ten elements' trace is drawn.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Trace {
+    /// Band-passed with the seed's filter as the tracker configures it (the seed's Fig. 2).
+    BandPassed,
+    /// As read, each element about its own mean over the window.
+    Raw,
+}
+
 fn plot_trials(
     config: &Config,
     scene: &Scene,
@@ -295,6 +314,7 @@ fn plot_trials(
     path: &ArteryPath,
     trials: &[TrialResult],
     dir: &Path,
+    trace_kind: Trace,
 ) -> Result<Plotted, crate::plot::PlotError> {
     let mm = |v: f64| v * 1e3;
     let figure = figure_of(scene, tracker, trials);
@@ -405,19 +425,30 @@ fn plot_trials(
             .filter(|f| f.t_s - t0 <= 4.0)
             .collect();
         let p = &config.tracker.params.seed2002;
-        let filter = BandPass::design(BandPassSpec {
-            order: p.fir_order,
-            low_hz: p.band_low_hz,
-            high_hz: p.band_high_hz,
-            sample_rate_hz: config.sensor.sample_rate_hz,
-        });
+        let filter = match trace_kind {
+            Trace::BandPassed => BandPass::design(BandPassSpec {
+                order: p.fir_order,
+                low_hz: p.band_low_hz,
+                high_hz: p.band_high_hz,
+                sample_rate_hz: config.sensor.sample_rate_hz,
+            })
+            .map_err(|e| e.to_string()),
+            Trace::Raw => Err("raw requested".to_string()),
+        };
+        let (how, axis) = match (trace_kind, &filter) {
+            (Trace::BandPassed, Ok(_)) => ("band-passed", "filtered force (N)"),
+            _ => (
+                "as read, about each element's mean",
+                "force about its mean (N)",
+            ),
+        };
         let mut trace = Chart::new(
             format!(
-                "{}, {tracker}, seed {}: the ten elements at the first placement, 4 s, band-passed",
+                "{}, {tracker}, seed {}: the ten elements at the first placement, 4 s, {how}",
                 scene.name, t.seed
             ),
             "time (s)",
-            "filtered force (N)",
+            axis,
         );
         for e in 0..ELEMENTS {
             let raw: Vec<f64> = window.iter().map(|f| f.force_n[e]).collect();
