@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use daemon::console::client::Client;
 use daemon::recording::recover;
 use daemon::recording::topics::Topic;
-use e2e::{Setup, T, call, scene, start_with_config, state, wait_state};
+use e2e::{Setup, SmallDisk, T, call, scene, start_with_config, state, wait_state};
 use serde_json::{Value, json};
 
 fn is_root() -> bool {
@@ -58,7 +58,6 @@ fn dir_line(dir: &Path) -> String {
     format!("dir: {:?},", dir.join("trials").display().to_string())
 }
 
-/// A tmpfs of `bytes` at `at` (root only), unmounted when dropped.
 /// A temporary folder with `trials/` in it on a tmpfs of `bytes`; `None` when not root (the
 /// test is skipped, saying that `what` needs root).
 fn trials_on_a_small_disk(
@@ -73,43 +72,6 @@ fn trials_on_a_small_disk(
     let trials = dir.path().join("trials");
     let disk = SmallDisk::mount(&trials, bytes).expect("tmpfs as root");
     Some((dir, trials, disk))
-}
-
-struct SmallDisk {
-    at: PathBuf,
-}
-
-impl SmallDisk {
-    fn mount(at: &Path, bytes: u64) -> Option<SmallDisk> {
-        std::fs::create_dir_all(at).expect("mount point");
-        let ok = Command::new("mount")
-            .args(["-t", "tmpfs", "-o"])
-            .arg(format!("size={bytes},mode=0700"))
-            .arg("tmpfs")
-            .arg(at)
-            .stderr(Stdio::null())
-            .status()
-            .map(|s| s.success())
-            .unwrap_or(false);
-        ok.then(|| SmallDisk {
-            at: at.to_path_buf(),
-        })
-    }
-
-    fn remount_read_only(&self) {
-        let s = Command::new("mount")
-            .args(["-o", "remount,ro"])
-            .arg(&self.at)
-            .status()
-            .expect("remount");
-        assert!(s.success(), "remount read-only");
-    }
-}
-
-impl Drop for SmallDisk {
-    fn drop(&mut self) {
-        let _ = Command::new("umount").arg("-l").arg(&self.at).status();
-    }
 }
 
 /// Collect events until `pred` holds (faults included: these tests wait for them).

@@ -307,3 +307,41 @@ pub fn seed(c: &mut Client) {
         wait_state(c, "holding");
     }
 }
+
+/// A tmpfs of `bytes` at `at` (root only), unmounted when dropped: a disk that fills up.
+pub struct SmallDisk {
+    at: PathBuf,
+}
+
+impl SmallDisk {
+    pub fn mount(at: &Path, bytes: u64) -> Option<SmallDisk> {
+        std::fs::create_dir_all(at).expect("mount point");
+        let ok = Command::new("mount")
+            .args(["-t", "tmpfs", "-o"])
+            .arg(format!("size={bytes},mode=0700"))
+            .arg("tmpfs")
+            .arg(at)
+            .stderr(Stdio::null())
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false);
+        ok.then(|| SmallDisk {
+            at: at.to_path_buf(),
+        })
+    }
+
+    pub fn remount_read_only(&self) {
+        let s = Command::new("mount")
+            .args(["-o", "remount,ro"])
+            .arg(&self.at)
+            .status()
+            .expect("remount");
+        assert!(s.success(), "remount read-only");
+    }
+}
+
+impl Drop for SmallDisk {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg("-l").arg(&self.at).status();
+    }
+}
