@@ -196,7 +196,8 @@ impl Bench {
                 "control.rate_hz {rate} and sensor.sample_rate_hz {frame_rate} must be positive"
             )));
         }
-        let placement = config.robot.tissue;
+        // The tissue where it truly lies (the robot believes the config's placement).
+        let placement = scene.tissue.true_placement(&config.robot.tissue);
         let base_from_tissue = Rotation3::from_axis_angle(&Vector3::y_axis(), placement.yaw_rad);
         let sensor_offset = Vector3::from(config.robot.sensor_offset_m);
         let mut dead = [false; ELEMENTS];
@@ -532,7 +533,7 @@ impl DynamicArm {
             geometry,
             config.robot.joint_limits,
             pivot_geometry,
-            config.robot.tissue,
+            scene.tissue.true_placement(&config.robot.tissue),
             config.robot.sensor_offset_m,
         )?;
         let q0 = truth_model.joints_for_sensor(&Point3::new(start.x_m, 0.0, start.z_m))?;

@@ -444,3 +444,44 @@ fn the_array_on_the_bench_reads_its_errors_and_the_calibration_recovers_them() {
         }
     }
 }
+
+/// A scene whose tissue lies yawed and raised against the config: the arm believes the
+/// sensor is where the config's placement puts it, which is the true place turned by the
+/// yaw error about the origin (and shifted by the origin's offset).
+#[test]
+fn a_misplaced_tissue_is_where_the_scene_says_and_the_robot_believes_otherwise() {
+    let config = sim_config();
+    let mut s = scene("seed-arc-145.ron");
+    let yaw = 5f64.to_radians();
+    s.tissue.placement_error = Some(crate::scene::PlacementError {
+        yaw_rad: yaw,
+        origin_offset_m: [0.0, 0.0, 0.0],
+    });
+    let mut bench = Bench::new(&s, &config, 1, false).expect("bench");
+    let truth = bench.truth().sensor;
+    let q = bench.read_joints().position_rad;
+    let believed = Driver::new(&config)
+        .model
+        .sensor_from_joints(&q)
+        .expect("believed");
+    // The true tissue axes are the configured ones turned by `yaw` about the vertical: a
+    // point at true tissue (x, z) is, in the configured frame, (x, z) turned by `yaw`.
+    let (sin, cos) = yaw.sin_cos();
+    let want_x = cos * truth.x_m + sin * truth.z_m;
+    let want_z = -sin * truth.x_m + cos * truth.z_m;
+    assert!(
+        (believed.x - want_x).abs() < 5e-4 && (believed.z - want_z).abs() < 5e-4,
+        "believed ({}, {}) against ({want_x}, {want_z}) from true ({}, {})",
+        believed.x,
+        believed.z,
+        truth.x_m,
+        truth.z_m
+    );
+    // And far enough from the truth that the test would see the yaw ignored.
+    assert!(
+        (believed.z - truth.z_m).abs() > 0.005,
+        "{} {}",
+        believed.z,
+        truth.z_m
+    );
+}

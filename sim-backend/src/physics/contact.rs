@@ -183,6 +183,7 @@ mod tests {
                 shear_stiffness_n_per_m: 2000.0,
             }),
             breathing: None,
+            placement_error: None,
         })
     }
 

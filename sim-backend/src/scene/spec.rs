@@ -1,7 +1,7 @@
 //! The scene file's types. Every field is SI with a unit suffix; optional sections are
 //! effects that exist only when named.
 
-use control::frames::SurfacePoint;
+use control::frames::{SurfacePoint, TissuePlacement};
 use control::kinematics::PhantomGeometry;
 use control::pd::gravity::PhantomMasses;
 use serde::{Deserialize, Serialize};
@@ -140,6 +140,9 @@ pub struct TissueSpec {
     pub friction: Option<FrictionSpec>,
     /// The tissue (artery and lumps with it) moving with breathing; absent: at rest.
     pub breathing: Option<Breathing>,
+    /// Where the tissue truly lies against where the config's `robot.tissue` says: the error
+    /// a tissue-frame calibration removes. Absent: where the config says.
+    pub placement_error: Option<PlacementError>,
 }
 
 impl Default for TissueSpec {
@@ -149,6 +152,42 @@ impl Default for TissueSpec {
             contact_damping_n_s_per_m: 15.0,
             friction: None,
             breathing: None,
+            placement_error: None,
+        }
+    }
+}
+
+impl TissueSpec {
+    /// Where the tissue truly lies, for the config's `configured` placement.
+    pub fn true_placement(&self, configured: &TissuePlacement) -> TissuePlacement {
+        match &self.placement_error {
+            None => *configured,
+            Some(e) => TissuePlacement {
+                origin_in_base_m: std::array::from_fn(|i| {
+                    configured.origin_in_base_m[i] + e.origin_offset_m[i]
+                }),
+                yaw_rad: configured.yaw_rad + e.yaw_rad,
+            },
+        }
+    }
+}
+
+/// The true tissue placement minus the configured one.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PlacementError {
+    /// Added to the configured yaw, rad.
+    pub yaw_rad: f64,
+    /// Added to the configured origin, robot base frame, m (`y` up: a surface higher than
+    /// configured).
+    pub origin_offset_m: [f64; 3],
+}
+
+impl Default for PlacementError {
+    fn default() -> Self {
+        Self {
+            yaw_rad: 0.0,
+            origin_offset_m: [0.0; 3],
         }
     }
 }

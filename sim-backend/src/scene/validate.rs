@@ -415,6 +415,14 @@ impl Validate for TissueSpec {
             0.0,
             1.0e4,
         );
+        if let Some(e) = &self.placement_error {
+            v.at("placement_error", |v| {
+                v.in_range("yaw_rad", e.yaw_rad, -0.5, 0.5);
+                for (i, &o) in e.origin_offset_m.iter().enumerate() {
+                    v.in_range(&format!("origin_offset_m[{i}]"), o, -0.05, 0.05);
+                }
+            });
+        }
         if let Some(b) = &self.breathing {
             v.at("breathing", |v| {
                 v.in_range("amplitude_m", b.amplitude_m, 0.0, 0.02);
