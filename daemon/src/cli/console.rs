@@ -148,7 +148,8 @@ pub struct TrackArgs {
 pub struct WatchArgs {
     #[command(flatten)]
     pub conn: Conn,
-    /// Streams: state, tactile, detections, faults, trials (default: all but tactile).
+    /// Streams: state, tactile, detections, faults, trials, calibration (default: all but
+    /// tactile).
     #[arg(long, value_delimiter = ',')]
     pub streams: Vec<String>,
     /// Show every n-th tactile frame.
@@ -342,6 +343,17 @@ fn print_status(r: &Value) {
         mm(&a["setpoint"]["z_m"]),
         mm(&a["depth_m"])
     );
+    let cal = &r["calibration"]["tactile"];
+    if cal.is_object() {
+        outln!(
+            "calibrated tactile array of {}: elements {} skipped, noise {:.1} mN",
+            cal["measured_utc"].as_str().unwrap_or("?"),
+            cal["unusable_elements"],
+            cal["noise_sd_n"].as_f64().unwrap_or(f64::NAN) * 1e3
+        );
+    } else if r["calibration"].is_object() {
+        outln!("calibrated (none: the tactile array is read as configured)");
+    }
     let t = &r["tactile"];
     outln!(
         "tactile    {} frames, newest {} s old, contact {} N",
@@ -473,6 +485,26 @@ pub fn describe_event(e: &Value) -> Option<String> {
                     .join(" "))
                 .unwrap_or_default()
         )),
+        "calibration" => Some(format!(
+            "[{t:9.3} s] calibration {} {}: {}",
+            e["procedure"].as_str().unwrap_or("?"),
+            e["step"].as_str().unwrap_or("?"),
+            match e["phase"].as_str() {
+                Some("done") if e["step"] == "load" => {
+                    if e["applied"] == Value::Bool(true) {
+                        format!(
+                            "passed, in use (unusable elements {})",
+                            e["unusable_elements"]
+                        )
+                    } else {
+                        format!("not applied: {}", e["reason"].as_str().unwrap_or("?"))
+                    }
+                }
+                Some("failed") => format!("failed: {}", e["reason"].as_str().unwrap_or("?")),
+                Some(p) => p.to_string(),
+                None => "?".to_string(),
+            }
+        )),
         "lagged" => Some(format!("(missed {} events)", e["dropped"])),
         _ => None,
     }
@@ -487,7 +519,7 @@ fn emit(line: &str) -> bool {
 
 fn watch(c: &mut Client, streams: &[String], every: u32, raw: bool) -> Result<ExitCode, String> {
     let names: Vec<&str> = if streams.is_empty() {
-        vec!["state", "detections", "faults", "trials"]
+        vec!["state", "detections", "faults", "trials", "calibration"]
     } else {
         streams.iter().map(String::as_str).collect()
     };
@@ -759,6 +791,32 @@ mod tests {
         assert!(
             !help.contains("--x-m ") && !help.contains("--speed-m-s"),
             "{help}"
+        );
+    }
+
+    #[test]
+    fn calibration_events_read_as_one_line_each() {
+        let applied = json!({"event": "calibration", "t_s": 3.0, "procedure": "tactile",
+            "step": "load", "phase": "done", "applied": true, "unusable_elements": [6]});
+        let line = describe_event(&applied).expect("a line");
+        assert!(
+            line.contains("tactile load: passed, in use (unusable elements [6])"),
+            "{line}"
+        );
+        let refused = json!({"event": "calibration", "t_s": 3.0, "procedure": "tactile",
+            "step": "load", "phase": "done", "applied": false,
+            "reason": "cannot write /x: No space left on device"});
+        assert!(
+            describe_event(&refused)
+                .expect("a line")
+                .contains("not applied: cannot write")
+        );
+        let failed = json!({"event": "calibration", "t_s": 1.0, "procedure": "tactile",
+            "step": "tare", "phase": "failed", "reason": "stopped"});
+        assert!(
+            describe_event(&failed)
+                .expect("a line")
+                .ends_with("tactile tare: failed: stopped")
         );
     }
 }
