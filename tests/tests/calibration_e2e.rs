@@ -343,3 +343,45 @@ fn a_full_disk_leaves_the_old_calibration_in_place_and_in_use() {
     daemon.stop();
     std::thread::sleep(Duration::from_millis(10));
 }
+
+/// `pulsetrack calibrate` waits for the result, prints it, and exits by it: 0 for a tare
+/// recorded, 1 for a calibration that failed its checks (nothing applied) or a procedure not
+/// built.
+#[test]
+fn the_command_line_prints_the_result_and_exits_by_it() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let (daemon, mut c) = start(dir.path(), &setup());
+    let cli = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
+            .arg("calibrate")
+            .args(args)
+            .arg("--socket")
+            .arg(&daemon.socket)
+            .arg("--config")
+            .arg(&daemon.config)
+            .output()
+            .expect("run pulsetrack calibrate");
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).to_string(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    place(&mut c, Some(0.0));
+    let (code, out, err) = cli(&["tactile", "tare", "--duration-s", "2", "--json"]);
+    assert_eq!(code, Some(0), "{out}{err}");
+    let done: Value = serde_json::from_str(out.trim()).expect("one JSON line");
+    assert_eq!(
+        (done["step"].clone(), done["phase"].clone()),
+        (json!("tare"), json!("done"))
+    );
+    // Nothing was put on the array: every gain is about 0, every element dead.
+    let (code, out, err) = cli(&["tactile", "load", "--load-per-element-n", "0.25"]);
+    assert_eq!(code, Some(1), "{out}{err}");
+    assert!(out.contains("NOT applied") && out.contains("FAIL"), "{out}");
+    assert!(!dir.path().join("calibration.ron").exists());
+    let (code, out, err) = cli(&["pivot"]);
+    assert_eq!(code, Some(1), "{out}{err}");
+    assert!(err.contains("not built yet"), "{err}");
+    daemon.stop();
+}

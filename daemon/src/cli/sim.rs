@@ -64,9 +64,12 @@ pub struct Args {
     pub calibration: Option<PathBuf>,
 }
 
-/// The tactile calibration in `path`'s calibration file; refused if it has none, or one that
-/// did not pass.
-fn tactile_calibration(path: &Path) -> Result<control::calibration::TactileCalibration, String> {
+/// The tactile calibration in `path`'s calibration file; refused as the daemon would refuse it
+/// (none, one that did not pass, or one leaving too few elements with `sensor`'s skipped).
+fn tactile_calibration(
+    path: &Path,
+    sensor: &control::sensor::ArrayGeometry,
+) -> Result<control::calibration::TactileCalibration, String> {
     let file = config::calibration_file::load(path)
         .map_err(|e| e.to_string())?
         .ok_or_else(|| format!("{}: no such file", path.display()))?;
@@ -74,13 +77,9 @@ fn tactile_calibration(path: &Path) -> Result<control::calibration::TactileCalib
         .value
         .tactile
         .ok_or_else(|| format!("{}: holds no tactile calibration", path.display()))?;
-    if !record.passed {
-        return Err(format!(
-            "{}: its tactile calibration of {} did not pass its checks",
-            path.display(),
-            record.measured_utc
-        ));
-    }
+    // The daemon's own test of a record it may use.
+    crate::supervisor::calibration::usable_record(&record, sensor)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(record.calibration)
 }
 
@@ -121,7 +120,7 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
     let calibration = args
         .calibration
         .as_deref()
-        .map(tactile_calibration)
+        .map(|p| tactile_calibration(p, &config.sensor))
         .transpose()?;
     let mut trials = Vec::with_capacity(args.trials as usize);
     for i in 0..args.trials {

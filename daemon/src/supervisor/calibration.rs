@@ -331,29 +331,19 @@ impl Supervisor {
             Err(e) => return self.calibration_failed(step, &e.to_string()),
         };
         let checks = cal.checks(&self.calibration.settings.tolerances);
-        let mut passed = all_passed(&checks);
         let record = TactileRecord {
             measured_utc: utc_stamp(std::time::SystemTime::now()),
             no_load_frames: tare.frames(),
             loaded_frames: frames.len(),
             calibration: cal,
             checks: checks.iter().map(CheckRecord::from).collect(),
-            passed,
+            passed: all_passed(&checks),
         };
-        // A result that passed its own checks can still leave too few elements with the
-        // configured ones skipped too.
-        let mut why_not = None;
-        if passed && let Err(e) = usable_record(&record, &self.calibration.settings.sensor) {
-            passed = false;
-            why_not = Some(e);
-        }
-        let saved = if passed {
-            self.save_tactile(&record)
-        } else {
-            Err(why_not.unwrap_or_else(|| {
-                "a check failed: not written, the calibration in use is unchanged".into()
-            }))
-        };
+        // Written only if it passed and leaves enough elements with the configured ones
+        // skipped too; applied only once written.
+        let saved = usable_record(&record, &self.calibration.settings.sensor)
+            .map_err(|e| format!("{e}: not written, the calibration in use is unchanged"))
+            .and_then(|_| self.save_tactile(&record));
         let applied = saved.is_ok();
         if applied {
             self.calibration.applied = Some(record.clone());
@@ -361,7 +351,7 @@ impl Supervisor {
         }
         let t = self.now_s();
         let ev = json!({"event": "calibration", "t_s": t, "procedure": "tactile",
-            "step": "load", "phase": "done", "passed": record.passed && passed,
+            "step": "load", "phase": "done", "passed": record.passed,
             "applied": applied,
             "file": applied.then(|| self.calibration.settings.file.clone()),
             "reason": saved.as_ref().err(),
@@ -369,6 +359,7 @@ impl Supervisor {
             "unusable_elements": Vec::<usize>::from(cal.unusable_mask()),
             "noise_sd_n": cal.noise_sd_n(),
             "load_per_element_n": load});
+        // To the live view's /events (no trial is open to record it in).
         self.record(Topic::Events, t, &ev);
         self.publish(Stream::Calibration, 0, &ev, false);
         let line = match &saved {
