@@ -48,10 +48,7 @@ fn a_saved_file_loads_back_the_same() {
     let back = load(&path).expect("loads").expect("present");
     assert_eq!(back.value, file);
     // No temporary file is left beside it.
-    let names: Vec<_> = std::fs::read_dir(path.parent().expect("dir"))
-        .expect("list")
-        .map(|e| e.expect("entry").file_name())
-        .collect();
+    let names = names_in(path.parent().expect("dir"));
     assert_eq!(names.len(), 1, "{names:?}");
 }
 
@@ -109,10 +106,7 @@ fn a_file_that_cannot_be_written_leaves_the_old_one() {
     std::fs::write(path.join("keep"), "x").expect("write");
     let e = save(&path, &CalibrationFile::default()).expect_err("a folder is in the way");
     assert!(e.contains("calibration.ron"), "{e}");
-    let left: Vec<_> = std::fs::read_dir(dir.path())
-        .expect("list")
-        .map(|e| e.expect("entry").file_name())
-        .collect();
+    let left = names_in(dir.path());
     assert_eq!(left.len(), 1, "the temporary file is removed: {left:?}");
 }
 
@@ -157,6 +151,14 @@ fn a_full_disk_leaves_the_old_file_whole() {
         .arg("-l")
         .arg(&disk)
         .status();
+}
+
+/// The names in a folder.
+fn names_in(dir: &std::path::Path) -> Vec<std::ffi::OsString> {
+    std::fs::read_dir(dir)
+        .expect("list")
+        .map(|e| e.expect("entry").file_name())
+        .collect()
 }
 
 fn nix_is_root() -> bool {
