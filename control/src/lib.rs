@@ -13,6 +13,7 @@ pub mod frames;
 pub mod kinematics;
 pub mod motion;
 pub mod pd;
+pub mod search;
 pub mod ports;
 pub mod sensor;
 pub mod signal;

@@ -26,6 +26,7 @@ pub mod kernel_fit;
 pub mod localize;
 pub mod noise_level;
 pub mod period;
+pub mod placed_pulse;
 pub mod pulse_search;
 pub mod weak_pulse;
 pub mod window;

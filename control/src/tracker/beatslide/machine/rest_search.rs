@@ -17,6 +17,7 @@
 //! on still tissue nothing changes.
 
 use super::*;
+use crate::signal::placed_pulse::PlaceMiss;
 use crate::signal::pulse_search;
 
 /// Half the width of the band left out around a refused pulse's rate, in units of the
@@ -159,9 +160,8 @@ impl BeatSlide {
     }
 }
 
-/// The strongest pulse in `settings`' range and its kernel fit, with the pulse's sign the
-/// one the kernel fits (in time a square wave and its inverse differ only by half a
-/// period; the kernel with its small negative lobes fits one far better than the other).
+/// The strongest pulse in `settings`' range among the window's frames, placed
+/// ([`crate::signal::placed_pulse`]).
 fn placed_pulse(
     search: &mut PulseSearch,
     window: &super::super::history::Window<'_>,
@@ -169,24 +169,11 @@ fn placed_pulse(
     settings: &PulseSearchSettings,
     geometry: &ArrayGeometry,
 ) -> Result<(PulseFound, KernelFit), Miss> {
-    let found = search.search(window.frames(), sigma, settings)?;
-    let se = found.amplitudes.se_per_sigma * sigma;
-    let flipped = found.flipped();
-    let (found, mut fit) = match (
-        fit_kernel(&found.amplitudes.amplitude_n, se, geometry),
-        fit_kernel(&flipped.amplitudes.amplitude_n, se, geometry),
-    ) {
-        (Ok(a), Ok(b)) if b.chi2 < a.chi2 => (flipped, b),
-        (Ok(a), _) => (found, a),
-        (Err(_), Ok(b)) => (flipped, b),
-        (Err(e), Err(_)) => return Err(e.into()),
-    };
-    if fit.at_edge || !fit.offset_se_m.is_finite() {
-        // At the edge the position is only a bound: keep it, with an uncertainty of two
-        // pitches.
-        fit.offset_se_m = 2.0 * geometry.pitch_m;
-    }
-    Ok((found, fit))
+    crate::signal::placed_pulse::placed_pulse(search, window.frames(), sigma, settings, geometry)
+        .map_err(|e| match e {
+            PlaceMiss::Search(m) => Miss::Search(m),
+            PlaceMiss::Kernel(k) => Miss::Kernel(k),
+        })
 }
 
 #[cfg(test)]

@@ -1,0 +1,136 @@
+use super::*;
+
+fn settings() -> MapSettings {
+    MapSettings {
+        max_heading_rad: 60f64.to_radians(),
+        offset_step_m: 0.25e-3,
+        heading_step_rad: 1f64.to_radians(),
+        reach_m: 0.01,
+        p_detect: 0.95,
+        p_false: 0.002,
+        place_floor_m: 0.3e-3,
+        prior_absent: 0.5,
+    }
+}
+
+fn region() -> Region {
+    Region::square(SurfacePoint::new(0.01, -0.02), 0.04).expect("region")
+}
+
+/// Where the line of heading `h` through `(x0, z0)` crosses `x`.
+fn on_line(h: f64, x0: f64, z0: f64, x: f64) -> f64 {
+    z0 + h.tan() * (x - x0)
+}
+
+#[test]
+fn two_felt_crossings_fix_the_line() {
+    let mut map = LineMap::new(&region(), settings());
+    let (h, x0, z0) = (25f64.to_radians(), 0.01, -0.015);
+    for (lx, lz) in [(0.0, -0.02), (0.02, -0.01)] {
+        let xi = on_line(h, x0, z0, lx) - lz;
+        assert!(xi.abs() < 0.01);
+        map.observe(
+            SurfacePoint::new(lx, lz),
+            LookReading::Felt {
+                offset_z_m: xi,
+                se_m: 0.2e-3,
+            },
+        );
+    }
+    let s = map.summary();
+    assert!(s.p_present > 0.999, "{s:?}");
+    // Two crossings 20 mm apart, each ±0.36 mm: the heading to about 1.5 degrees.
+    assert!((s.heading_rad - h).abs() < 2f64.to_radians(), "{s:?}");
+    // A few lines through one point only (the other taken for a false alarm) widen the SD;
+    // the credible mass about the best heading is what the search stops on.
+    let (bh, _) = map.best_line();
+    let mass = map.heading_mass_within(bh, 3f64.to_radians());
+    assert!(mass > 0.95 && mass <= s.p_present + 1e-12, "{mass}");
+    assert!((s.offset_m - z0).abs() < 0.5e-3, "{s:?}");
+    let (_, bz) = map.best_line();
+    assert!((bh - h).abs() < 1.5f64.to_radians() && (bz - z0).abs() < 0.5e-3);
+    // Its SD too carries the tails, but is far below the one-point case below.
+    assert!(map.crossing_sd_m(0.0) < 2e-3, "{}", map.crossing_sd_m(0.0));
+    // One crossing alone leaves the heading open: the SD of the other crossing is large.
+    let mut one = LineMap::new(&region(), settings());
+    one.observe(
+        SurfacePoint::new(0.0, -0.02),
+        LookReading::Felt {
+            offset_z_m: on_line(h, x0, z0, 0.0) + 0.02,
+            se_m: 0.2e-3,
+        },
+    );
+    assert!(one.crossing_sd_m(0.02) > 5e-3, "{}", one.crossing_sd_m(0.02));
+    assert!(one.summary().heading_sd_rad > 20f64.to_radians());
+}
+
+#[test]
+fn misses_across_the_middle_column_say_no_artery() {
+    let mut map = LineMap::new(&region(), settings());
+    let r = region();
+    let c = r.centre();
+    // Two looks across the middle column cover every line of the prior, each once.
+    for dz in [-0.01, 0.01] {
+        map.observe(SurfacePoint::new(c.x_m, c.z_m + dz), LookReading::Nothing);
+    }
+    let s = map.summary();
+    // Prior 0.5, each line missed once at p_d 0.95: 0.5·0.05 / (0.5·0.05 + 0.5·0.998²).
+    let expected = 0.5 * 0.05 / (0.5 * 0.05 + 0.5 * 0.998f64.powi(2));
+    assert!((s.p_present - expected).abs() < 0.01, "{} vs {expected}", s.p_present);
+    // A look that misses only part of the lines leaves more doubt.
+    let mut part = LineMap::new(&region(), settings());
+    part.observe(c, LookReading::Nothing);
+    assert!(part.summary().p_present > 0.2);
+}
+
+#[test]
+fn information_prefers_the_unknown_crossing_and_is_zero_where_nothing_can_be_learnt() {
+    let mut map = LineMap::new(&region(), settings());
+    let felt_at = SurfacePoint::new(0.01, -0.02);
+    map.observe(
+        felt_at,
+        LookReading::Felt {
+            offset_z_m: 0.0,
+            se_m: 0.2e-3,
+        },
+    );
+    let mut p = Vec::new();
+    let absent = map.probabilities(&mut p);
+    let mut bins = vec![0.0; 40];
+    let again = map.look_information(&p, absent, felt_at, 0.2e-3, &mut bins);
+    let along = map.look_information(&p, absent, SurfacePoint::new(0.025, -0.02), 0.2e-3, &mut bins);
+    assert!(along > again + 0.5, "again {again}, along {along}");
+    // A look far beyond every line left: nothing to learn.
+    let mut sure = LineMap::new(&region(), settings());
+    for x in [0.0, 0.02] {
+        sure.observe(
+            SurfacePoint::new(x, -0.02),
+            LookReading::Felt {
+                offset_z_m: 0.0,
+                se_m: 0.1e-3,
+            },
+        );
+    }
+    let absent = sure.probabilities(&mut p);
+    let off = sure.look_information(&p, absent, SurfacePoint::new(0.01, 0.1), 0.2e-3, &mut bins);
+    assert!(off < 1e-3, "{off}");
+}
+
+#[test]
+fn a_single_heading_and_a_flat_prior_do_not_break_the_grid() {
+    let mut s = settings();
+    s.max_heading_rad = 0.0;
+    let mut map = LineMap::new(&region(), s);
+    assert_eq!(map.cells(), 161);
+    map.observe(
+        SurfacePoint::new(0.01, -0.02),
+        LookReading::Felt {
+            offset_z_m: 0.004,
+            se_m: 0.2e-3,
+        },
+    );
+    let sum = map.summary();
+    assert!(sum.heading_sd_rad == 0.0 && sum.heading_rad == 0.0);
+    assert!((sum.offset_m - -0.016).abs() < 0.5e-3, "{sum:?}");
+    assert!(sum.p_present.is_finite() && sum.offset_sd_m.is_finite());
+}

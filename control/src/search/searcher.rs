@@ -1,0 +1,485 @@
+//! The search's state machine: move to a look, settle, look, update the map, decide.
+
+use std::collections::VecDeque;
+
+use crate::frames::SurfacePoint;
+use crate::sensor::ArrayGeometry;
+use crate::signal::noise_level::NoiseLevel;
+use crate::signal::placed_pulse::placed_pulse;
+use crate::signal::pulse_search::{PulseSearch, PulseSearchSettings};
+use crate::tracker::{LocatedPoint, MotionCommand, TrackerInput};
+use crate::types::{ELEMENTS, TactileFrame};
+
+use super::line_map::{LineMap, LookReading, MapSettings};
+use super::params::{ParamsError, SearchParams};
+use super::plan::{self, PlanScratch, SearchMethod};
+use super::region::Region;
+use super::{LookReport, NotFoundReason, SearchEvent, SearchOutcome, SearchOutput};
+
+/// Samples per block in the period search (as `beatslide`'s marks).
+const SEARCH_DECIMATION: usize = 4;
+/// Periods a look must hold once the period is known is `look_periods`; the search is
+/// narrowed to this fraction about the known period.
+const KNOWN_PERIOD_RANGE: f64 = 0.15;
+/// A look's phase is taken as held over this long (as `beatslide`'s `coherent_s`).
+const COHERENT_S: f64 = 12.0;
+/// A felt point agrees with the best line within this many of its SDs.
+const AGREE_SIGMAS: f64 = 3.0;
+/// A pulse placed more loosely than this is a flank, not a place, m.
+const MAX_PLACED_SE_M: f64 = 1e-3;
+/// The SNR the weakest felt pulse is reported at (the detection statistic's scale).
+const FELT_SNR: f64 = 8.0;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum State {
+    /// Not yet given a frame: choose the first look.
+    Start,
+    Moving { target: SurfacePoint },
+    Settling { until_s: f64 },
+    Looking { since_s: f64, until_s: f64 },
+    Done,
+}
+
+/// One felt look kept for seeding.
+#[derive(Debug, Clone, Copy)]
+struct Felt {
+    point: LocatedPoint,
+    se_m: f64,
+}
+
+/// Why a searcher cannot be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BuildError {
+    #[error(transparent)]
+    Params(#[from] ParamsError),
+    #[error("sensor: {0}")]
+    Sensor(String),
+    #[error(transparent)]
+    Region(#[from] super::region::RegionError),
+}
+
+/// The searcher. Build it with the array's geometry and the region; feed it every frame.
+pub struct Searcher {
+    params: SearchParams,
+    geometry: ArrayGeometry,
+    region: Region,
+    method: SearchMethod,
+    map: LineMap,
+    state: State,
+    events: VecDeque<SearchEvent>,
+    outcome: Option<SearchOutcome>,
+    frames: Vec<TactileFrame>,
+    believed_sum: (f64, f64, usize),
+    pulse_search: PulseSearch,
+    noise: NoiseLevel,
+    period_s: Option<f64>,
+    felt: Vec<Felt>,
+    looks: usize,
+    shortest_miss_samples: Option<usize>,
+    started_s: Option<f64>,
+    candidates: Vec<SurfacePoint>,
+    raster: Vec<SurfacePoint>,
+    raster_next: usize,
+    unreachable: Vec<SurfacePoint>,
+    scratch: PlanScratch,
+    last_target: Option<SurfacePoint>,
+}
+
+impl std::fmt::Debug for Searcher {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Searcher")
+            .field("method", &self.method)
+            .field("region", &self.region)
+            .field("state", &self.state)
+            .field("looks", &self.looks)
+            .field("outcome", &self.outcome)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Half the span along `z` over which a look feels an artery: the outer elements' centres
+/// plus half a pitch.
+fn reach_m(geometry: &ArrayGeometry) -> f64 {
+    (ELEMENTS as f64 / 2.0) * geometry.pitch_m
+}
+
+impl Searcher {
+    pub fn new(
+        params: SearchParams,
+        geometry: ArrayGeometry,
+        region: Region,
+        method: SearchMethod,
+    ) -> Result<Self, BuildError> {
+        params.validate()?;
+        geometry.check().map_err(BuildError::Sensor)?;
+        region.validate()?;
+        let reach = reach_m(&geometry);
+        let map = LineMap::new(
+            &region,
+            MapSettings {
+                max_heading_rad: params.max_heading_rad,
+                offset_step_m: params.offset_step_m,
+                heading_step_rad: params.heading_step_rad,
+                reach_m: reach,
+                p_detect: params.p_detect,
+                p_false: params.p_false,
+                place_floor_m: params.place_floor_m,
+                prior_absent: params.prior_absent,
+            },
+        );
+        let capacity = ((params.first_look_s.max(params.look_periods * params.max_period_s)
+            + 1.0)
+            * geometry.sample_rate_hz)
+            .ceil() as usize;
+        Ok(Self {
+            map,
+            state: State::Start,
+            events: VecDeque::new(),
+            outcome: None,
+            frames: Vec::with_capacity(capacity),
+            believed_sum: (0.0, 0.0, 0),
+            pulse_search: PulseSearch::new(capacity),
+            noise: NoiseLevel::new(capacity),
+            period_s: None,
+            felt: Vec::new(),
+            looks: 0,
+            shortest_miss_samples: None,
+            started_s: None,
+            candidates: plan::candidate_looks(&region, params.candidate_step_m),
+            raster: plan::raster_looks(&region, reach, params.seed_separation_m),
+            raster_next: 0,
+            unreachable: Vec::new(),
+            scratch: PlanScratch::default(),
+            last_target: None,
+            params,
+            geometry,
+            region,
+            method,
+        })
+    }
+
+    pub fn region(&self) -> &Region {
+        &self.region
+    }
+
+    pub fn method(&self) -> SearchMethod {
+        self.method
+    }
+
+    pub fn map(&self) -> &LineMap {
+        &self.map
+    }
+
+    /// How the search ended, once it has.
+    pub fn outcome(&self) -> Option<&SearchOutcome> {
+        self.outcome.as_ref()
+    }
+
+    /// End now (the next step reports `Stopped`).
+    pub fn stop(&mut self) {
+        if self.outcome.is_none() {
+            let t_s = self.last_time();
+            self.finish(SearchOutcome::Stopped {
+                t_s,
+                looks: self.looks,
+            });
+        }
+    }
+
+    /// The last look asked for cannot be reached: it is not asked for again, and the next
+    /// is chosen from where the sensor is.
+    pub fn target_unreachable(&mut self) {
+        if let Some(t) = self.last_target.take() {
+            self.unreachable.push(t);
+        }
+        if matches!(self.state, State::Moving { .. }) {
+            self.state = State::Start;
+        }
+    }
+
+    fn last_time(&self) -> f64 {
+        self.frames
+            .last()
+            .map_or(self.started_s.unwrap_or(0.0), |f| f.t_s)
+    }
+
+    fn finish(&mut self, outcome: SearchOutcome) {
+        self.outcome = Some(outcome);
+        self.events.push_back(SearchEvent::Finished(outcome));
+        self.state = State::Done;
+    }
+
+    /// Consume one frame.
+    pub fn step(&mut self, input: &TrackerInput<'_>) -> SearchOutput {
+        let t = input.frame.t_s;
+        let started = *self.started_s.get_or_insert(t);
+        if self.outcome.is_none() && t - started > self.params.max_time_s {
+            self.not_found(t, NotFoundReason::TimeLimit);
+        }
+        let motion = match self.state {
+            State::Done => MotionCommand::Hold,
+            State::Start => self.next_look(t, input.sensor),
+            State::Moving { target } => {
+                if input.settled {
+                    self.state = State::Settling {
+                        until_s: t + self.params.settle_s,
+                    };
+                    MotionCommand::Hold
+                } else {
+                    MotionCommand::MoveTo {
+                        target,
+                        speed_m_s: self.params.speed_m_s,
+                    }
+                }
+            }
+            State::Settling { until_s } => {
+                if t >= until_s {
+                    self.frames.clear();
+                    self.believed_sum = (0.0, 0.0, 0);
+                    self.state = State::Looking {
+                        since_s: t,
+                        until_s: t + self.look_s(),
+                    };
+                }
+                MotionCommand::Hold
+            }
+            State::Looking { since_s, until_s } => {
+                if input.frame.is_finite() && self.frames.len() < self.frames.capacity() {
+                    self.frames.push(*input.frame);
+                }
+                if input.sensor.is_finite() {
+                    let s = &mut self.believed_sum;
+                    s.0 += input.sensor.x_m;
+                    s.1 += input.sensor.z_m;
+                    s.2 += 1;
+                }
+                if t >= until_s {
+                    self.end_look(t, since_s, input.sensor)
+                } else {
+                    MotionCommand::Hold
+                }
+            }
+        };
+        SearchOutput {
+            motion,
+            event: self.events.pop_front(),
+        }
+    }
+
+    /// The length of the next look, s.
+    fn look_s(&self) -> f64 {
+        match self.period_s {
+            Some(p) => self.params.look_periods * p * (1.0 + KNOWN_PERIOD_RANGE),
+            None => self.params.first_look_s,
+        }
+    }
+
+    fn settings(&self) -> PulseSearchSettings {
+        let (lo, hi) = match self.period_s {
+            Some(p) => (
+                (p * (1.0 - KNOWN_PERIOD_RANGE)).max(self.params.min_period_s),
+                (p * (1.0 + KNOWN_PERIOD_RANGE)).min(self.params.max_period_s),
+            ),
+            None => (self.params.min_period_s, self.params.max_period_s),
+        };
+        PulseSearchSettings {
+            min_period_s: lo,
+            max_period_s: hi,
+            threshold: self.params.detection_threshold,
+            decimation: SEARCH_DECIMATION,
+            min_cycles: if self.period_s.is_some() { 2.0 } else { 2.5 },
+            coherent_s: COHERENT_S,
+            plausible_min_period_s: self.params.min_period_s,
+            plausible_max_period_s: self.params.max_period_s,
+        }
+    }
+
+    /// Analyse the look just ended, update the map and decide.
+    fn end_look(&mut self, t: f64, since_s: f64, now: SurfacePoint) -> MotionCommand {
+        let (sx, sz, n) = self.believed_sum;
+        let at = if n > 0 {
+            SurfacePoint::new(sx / n as f64, sz / n as f64)
+        } else {
+            now
+        };
+        let sigma = self
+            .noise
+            .estimate(self.frames.iter())
+            .unwrap_or(self.geometry.noise_sd_n);
+        let settings = self.settings();
+        let placed = placed_pulse(
+            &mut self.pulse_search,
+            self.frames.iter(),
+            sigma,
+            &settings,
+            &self.geometry,
+        );
+        self.looks += 1;
+        let mut felt_point = None;
+        let mut period = None;
+        let reading = match placed {
+            Ok((found, fit)) => {
+                let p = found.phase.period_s;
+                period = Some(p);
+                self.period_s = Some(self.period_s.map_or(p, |old| 0.5 * (old + p)));
+                let placed = !fit.at_edge
+                    && fit.amplitude > 0.0
+                    && fit.offset_se_m <= MAX_PLACED_SE_M
+                    && (0.0..=(ELEMENTS - 1) as f64).contains(&fit.element);
+                if placed {
+                    let point = LocatedPoint {
+                        t_s: t,
+                        point: SurfacePoint::new(at.x_m, at.z_m + fit.offset_z_m),
+                        sensor: at,
+                        element: fit.element,
+                        amplitude_n: fit.amplitude,
+                        seed: true,
+                        sd_m: Some(fit.offset_se_m),
+                    };
+                    felt_point = Some(point);
+                    self.felt.push(Felt {
+                        point,
+                        se_m: fit.offset_se_m,
+                    });
+                    LookReading::Felt {
+                        offset_z_m: fit.offset_z_m,
+                        se_m: fit.offset_se_m,
+                    }
+                } else {
+                    LookReading::Flank
+                }
+            }
+            _ => {
+                let samples = self.frames.len();
+                self.shortest_miss_samples = Some(
+                    self.shortest_miss_samples
+                        .map_or(samples, |s| s.min(samples)),
+                );
+                LookReading::Nothing
+            }
+        };
+        self.map.observe(at, reading);
+        let summary = self.map.summary();
+        self.events.push_back(SearchEvent::Look(LookReport {
+            t_s: t,
+            at,
+            duration_s: t - since_s,
+            felt: felt_point,
+            period_s: period,
+            p_present: summary.p_present,
+            heading_rad: summary.heading_rad,
+            heading_sd_rad: summary.heading_sd_rad,
+            looks: self.looks,
+        }));
+        let (best_heading, _) = self.map.best_line();
+        if summary.p_present >= self.params.found_probability
+            && self
+                .map
+                .heading_mass_within(best_heading, self.params.heading_tolerance_rad)
+                >= self.params.heading_confidence
+            && let Some(seeds) = self.seeds()
+        {
+            self.finish(SearchOutcome::Found {
+                t_s: t,
+                seeds,
+                heading_rad: summary.heading_rad,
+                heading_sd_rad: summary.heading_sd_rad,
+                p_present: summary.p_present,
+                looks: self.looks,
+            });
+            return MotionCommand::Hold;
+        }
+        if 1.0 - summary.p_present >= self.params.absent_probability {
+            self.not_found(t, NotFoundReason::NothingPulses);
+            return MotionCommand::Hold;
+        }
+        self.next_look(t, at)
+    }
+
+    /// Two felt points, not at the array's edge, that agree with the best line and lie at
+    /// least `seed_separation_m` apart along `x`: the pair farthest apart, along `+x`.
+    fn seeds(&self) -> Option<[LocatedPoint; 2]> {
+        let (heading, z_c) = self.map.best_line();
+        let c = self.region.centre();
+        let floor = self.params.place_floor_m;
+        let agree: Vec<&Felt> = self
+            .felt
+            .iter()
+            .filter(|f| {
+                let z = z_c + heading.tan() * (f.point.point.x_m - c.x_m);
+                let sd = f.se_m.hypot(floor);
+                (f.point.point.z_m - z).abs() <= AGREE_SIGMAS * sd
+            })
+            .collect();
+        let mut best: Option<(f64, [LocatedPoint; 2])> = None;
+        for (i, a) in agree.iter().enumerate() {
+            for b in &agree[i + 1..] {
+                let dx = (a.point.point.x_m - b.point.point.x_m).abs();
+                if dx >= self.params.seed_separation_m && best.is_none_or(|(d, _)| dx > d) {
+                    let pair = if a.point.point.x_m <= b.point.point.x_m {
+                        [a.point, b.point]
+                    } else {
+                        [b.point, a.point]
+                    };
+                    best = Some((dx, pair));
+                }
+            }
+        }
+        best.map(|(_, p)| p)
+    }
+
+    fn not_found(&mut self, t: f64, reason: NotFoundReason) {
+        let samples = self.shortest_miss_samples.unwrap_or(0).max(1) as f64;
+        // A pulse of amplitude A on one element, fitted over N samples at σ, has an SE of
+        // σ√(2/N): the amplitude at the detection statistic's scale.
+        let weakest_felt_n = FELT_SNR * self.geometry.noise_sd_n * (2.0 / samples).sqrt();
+        let p_present = self.map.summary().p_present;
+        self.finish(SearchOutcome::NotFound {
+            t_s: t,
+            reason,
+            p_present,
+            weakest_felt_n,
+            looks: self.looks,
+        });
+    }
+
+    /// Choose the next look and start moving to it.
+    fn next_look(&mut self, t: f64, from: SurfacePoint) -> MotionCommand {
+        let target = match self.method {
+            plan::SearchMethod::Search => plan::best_look(
+                &self.map,
+                &self.candidates,
+                &self.unreachable,
+                from,
+                self.look_s(),
+                self.params.speed_m_s,
+                self.geometry.pitch_m * 0.1,
+                &mut self.scratch,
+            )
+            .map(|c| c.at),
+            plan::SearchMethod::Raster => loop {
+                let Some(&p) = self.raster.get(self.raster_next) else {
+                    break None;
+                };
+                self.raster_next += 1;
+                if !self
+                    .unreachable
+                    .iter()
+                    .any(|u| u.distance_to(&p) < 1e-3)
+                {
+                    break Some(p);
+                }
+            },
+        };
+        let Some(target) = target else {
+            self.not_found(t, NotFoundReason::NothingLeftToLearn);
+            return MotionCommand::Hold;
+        };
+        self.last_target = Some(target);
+        self.state = State::Moving { target };
+        MotionCommand::MoveTo {
+            target,
+            speed_m_s: self.params.speed_m_s,
+        }
+    }
+}
