@@ -22,6 +22,7 @@ pub mod rig;
 pub mod runner;
 
 pub mod scene;
+pub mod search_scene;
 pub mod trial;
 pub mod trial_event;
 

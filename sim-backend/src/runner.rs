@@ -30,6 +30,8 @@ use crate::scene::{Placing, Scene};
 use crate::trial::{LocatedSample, TrialResult};
 use crate::trial_event::{EventKind, TrialEvent};
 
+pub mod search;
+
 /// Simulated time allowed for the whole trial before it is stopped as `timeout`, s. The seed
 /// took about two minutes per 26 cm track; `beatslide` on a weak artery listens a minute or
 /// more at each 5 mm stop (docs/tracker-beatslide.md), about an hour per 24 cm.

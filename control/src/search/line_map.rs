@@ -13,7 +13,11 @@
 //! A look at rest with the array centred at `(x_l, z_l)` reads where a line crosses the
 //! element line `x = x_l`: `ξ = z(x_l) − z_l`. Its likelihood, with `p_d` the chance to feel
 //! an artery within the array's reach `|ξ| ≤ R`, and `p_fa` the chance of a false detection:
-//! - nothing felt: `1 − p_d` within reach, 1 beyond it and for "no artery";
+//! - nothing felt: `1 − p_d` within the inner reach (`R` less two pitches: over the outer
+//!   elements a pulse may be missed or felt only as a flank), 1 beyond it and for "no
+//!   artery";
+//! - a flank (a pulse the kernel cannot place): `1 − p_d` within the inner reach, 1
+//!   beyond, `p_fa` for "no artery";
 //! - felt at `ξ_m ± s`: `p_d · N(ξ_m − ξ; s² + floor²)` within reach, else `p_fa / 2R`.
 
 use crate::frames::SurfacePoint;
@@ -92,9 +96,10 @@ impl LineMap {
         let offsets: Vec<f64> = (0..n_off)
             .map(|i| -half + 2.0 * half * i as f64 / (n_off - 1).max(1) as f64)
             .collect();
-        let n_head =
-            (2.0 * settings.max_heading_rad / settings.heading_step_rad).round().max(0.0) as usize
-                + 1;
+        let n_head = (2.0 * settings.max_heading_rad / settings.heading_step_rad)
+            .round()
+            .max(0.0) as usize
+            + 1;
         let headings: Vec<f64> = (0..n_head)
             .map(|j| {
                 if n_head == 1 {
@@ -140,11 +145,14 @@ impl LineMap {
         let n_off = self.offsets.len();
         match reading {
             LookReading::Nothing => {
+                // Over the outer elements a pulse may be missed or felt only as a flank: a
+                // miss says nothing about them.
+                let inner = reach - FLANK_MARGIN_M;
                 let miss = (1.0 - s.p_detect).ln();
                 for j in 0..self.headings.len() {
                     for i in 0..n_off {
                         let xi = self.z_at(j, i, at.x_m) - at.z_m;
-                        if xi.abs() <= reach {
+                        if xi.abs() <= inner {
                             self.log_p[j * n_off + i] += miss;
                         }
                     }
@@ -186,11 +194,7 @@ impl LineMap {
 
     /// The normalized posterior: the probability of each cell and of "no artery".
     pub fn probabilities(&self, out: &mut Vec<f64>) -> f64 {
-        let max = self
-            .log_p
-            .iter()
-            .copied()
-            .fold(self.log_absent, f64::max);
+        let max = self.log_p.iter().copied().fold(self.log_absent, f64::max);
         out.clear();
         out.extend(self.log_p.iter().map(|l| (l - max).exp()));
         let absent = (self.log_absent - max).exp();
@@ -261,19 +265,24 @@ impl LineMap {
             .log_p
             .iter()
             .enumerate()
-            .fold((0, f64::NEG_INFINITY), |b, (k, &l)| if l > b.1 { (k, l) } else { b });
+            .fold(
+                (0, f64::NEG_INFINITY),
+                |b, (k, &l)| if l > b.1 { (k, l) } else { b },
+            );
         let n_off = self.offsets.len();
-        (self.headings[k / n_off], self.centre.z_m + self.offsets[k % n_off])
+        (
+            self.headings[k / n_off],
+            self.centre.z_m + self.offsets[k % n_off],
+        )
     }
 
     /// The expected information (nats) a look centred at `at` gives about the line and about
-    /// whether there is one, given the posterior `p` (from [`Self::probabilities`]) with
-    /// `absent`: the detection outcome's mutual information plus, weighted by the chance
+    /// whether there is one, given the posterior `p` (from [`Self::probabilities`]): the
+    /// detection outcome's mutual information plus, weighted by the chance
     /// to feel it, what reading the crossing to `se_m` adds over its spread within reach.
     pub fn look_information(
         &self,
         p: &[f64],
-        absent: f64,
         at: SurfacePoint,
         se_m: f64,
         bins: &mut [f64],
@@ -283,7 +292,9 @@ impl LineMap {
         let n_off = self.offsets.len();
         bins.iter_mut().for_each(|b| *b = 0.0);
         let nb = bins.len();
-        let mut p_in = 0.0;
+        let inner = reach - FLANK_MARGIN_M;
+        // `p_in`: within reach (felt and placed); `p_inner`: where a miss rules it out.
+        let (mut p_in, mut p_inner) = (0.0, 0.0);
         for (j, &tan) in self.tans.iter().enumerate() {
             let base = self.centre.z_m + tan * (at.x_m - self.centre.x_m) - at.z_m;
             let row = &p[j * n_off..(j + 1) * n_off];
@@ -291,16 +302,20 @@ impl LineMap {
                 let xi = base + self.offsets[i];
                 if xi.abs() <= reach {
                     p_in += pk;
+                    if xi.abs() <= inner {
+                        p_inner += pk;
+                    }
                     let b = (((xi + reach) / (2.0 * reach)) * nb as f64) as usize;
                     bins[b.min(nb - 1)] += pk;
                 }
             }
         }
-        let p_out = 1.0 - p_in - absent;
-        let p_felt = p_in * s.p_detect + (p_out.max(0.0) + absent) * s.p_false;
+        // The detection outcome as the miss model reads it: felt within the inner reach
+        // with p_d, falsely with p_fa elsewhere.
+        let p_felt = p_inner * s.p_detect + (1.0 - p_inner) * s.p_false;
         let detection = binary_entropy(p_felt)
-            - p_in * binary_entropy(s.p_detect)
-            - (1.0 - p_in) * binary_entropy(s.p_false);
+            - p_inner * binary_entropy(s.p_detect)
+            - (1.0 - p_inner) * binary_entropy(s.p_false);
         // The crossing's entropy within reach, against what one reading leaves.
         let mut place = 0.0;
         if p_in > 1e-12 {

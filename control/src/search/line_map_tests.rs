@@ -60,7 +60,11 @@ fn two_felt_crossings_fix_the_line() {
             se_m: 0.2e-3,
         },
     );
-    assert!(one.crossing_sd_m(0.02) > 5e-3, "{}", one.crossing_sd_m(0.02));
+    assert!(
+        one.crossing_sd_m(0.02) > 5e-3,
+        "{}",
+        one.crossing_sd_m(0.02)
+    );
     assert!(one.summary().heading_sd_rad > 20f64.to_radians());
 }
 
@@ -69,14 +73,32 @@ fn misses_across_the_middle_column_say_no_artery() {
     let mut map = LineMap::new(&region(), settings());
     let r = region();
     let c = r.centre();
-    // Two looks across the middle column cover every line of the prior, each once.
-    for dz in [-0.01, 0.01] {
+    // Four looks across the middle column: a miss rules out lines within the inner reach
+    // (10 − 4 mm), so together they cover every line of the prior, some twice.
+    let looks = [-0.015, -0.005, 0.005, 0.015];
+    for dz in looks {
         map.observe(SurfacePoint::new(c.x_m, c.z_m + dz), LookReading::Nothing);
     }
     let s = map.summary();
-    // Prior 0.5, each line missed once at p_d 0.95: 0.5·0.05 / (0.5·0.05 + 0.5·0.998²).
-    let expected = 0.5 * 0.05 / (0.5 * 0.05 + 0.5 * 0.998f64.powi(2));
-    assert!((s.p_present - expected).abs() < 0.01, "{} vs {expected}", s.p_present);
+    // The same posterior counted by hand over the grid's offsets (every heading crosses the
+    // middle column at its offset): each line keeps 0.05 per look that covers it.
+    let inner = 0.01 - FLANK_MARGIN_M;
+    let lines: f64 = (0..=160)
+        .map(|i| {
+            let o = -0.02 + 0.04 * i as f64 / 160.0;
+            let k = looks.iter().filter(|z| (o - **z).abs() <= inner).count();
+            assert!(k >= 1, "offset {o} uncovered");
+            0.05f64.powi(k as i32)
+        })
+        .sum::<f64>()
+        / 161.0;
+    let expected = 0.5 * lines / (0.5 * lines + 0.5 * 0.998f64.powi(4));
+    assert!(
+        (s.p_present - expected).abs() < 1e-9,
+        "{} vs {expected}",
+        s.p_present
+    );
+    assert!(s.p_present < 0.05, "{}", s.p_present);
     // A look that misses only part of the lines leaves more doubt.
     let mut part = LineMap::new(&region(), settings());
     part.observe(c, LookReading::Nothing);
@@ -95,10 +117,10 @@ fn information_prefers_the_unknown_crossing_and_is_zero_where_nothing_can_be_lea
         },
     );
     let mut p = Vec::new();
-    let absent = map.probabilities(&mut p);
+    map.probabilities(&mut p);
     let mut bins = vec![0.0; 40];
-    let again = map.look_information(&p, absent, felt_at, 0.2e-3, &mut bins);
-    let along = map.look_information(&p, absent, SurfacePoint::new(0.025, -0.02), 0.2e-3, &mut bins);
+    let again = map.look_information(&p, felt_at, 0.2e-3, &mut bins);
+    let along = map.look_information(&p, SurfacePoint::new(0.025, -0.02), 0.2e-3, &mut bins);
     assert!(along > again + 0.5, "again {again}, along {along}");
     // A look far beyond every line left: nothing to learn.
     let mut sure = LineMap::new(&region(), settings());
@@ -111,8 +133,8 @@ fn information_prefers_the_unknown_crossing_and_is_zero_where_nothing_can_be_lea
             },
         );
     }
-    let absent = sure.probabilities(&mut p);
-    let off = sure.look_information(&p, absent, SurfacePoint::new(0.01, 0.1), 0.2e-3, &mut bins);
+    sure.probabilities(&mut p);
+    let off = sure.look_information(&p, SurfacePoint::new(0.01, 0.1), 0.2e-3, &mut bins);
     assert!(off < 1e-3, "{off}");
 }
 

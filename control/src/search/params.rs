@@ -47,6 +47,9 @@ pub struct SearchParams {
     pub max_time_s: f64,
     /// Candidate look spacing over the region, m.
     pub candidate_step_m: f64,
+    /// Looks stay this far inside the region's edges, m: a compliant rod carries the sensor
+    /// past the arm's target by a few millimetres.
+    pub edge_margin_m: f64,
 }
 
 impl Default for SearchParams {
@@ -64,7 +67,7 @@ impl Default for SearchParams {
             heading_step_rad: 1f64.to_radians(),
             p_detect: 0.95,
             p_false: 0.002,
-            place_floor_m: 0.3e-3,
+            place_floor_m: 0.5e-3,
             prior_absent: 0.5,
             found_probability: 0.99,
             heading_tolerance_rad: 3f64.to_radians(),
@@ -73,6 +76,7 @@ impl Default for SearchParams {
             absent_probability: 0.95,
             max_time_s: 120.0,
             candidate_step_m: 0.002,
+            edge_margin_m: 0.003,
         }
     }
 }
@@ -151,6 +155,12 @@ impl SearchParams {
                 "settle_s",
                 self.settle_s,
                 self.settle_s.is_finite() && self.settle_s >= 0.0,
+                "must be zero or positive",
+            ),
+            (
+                "edge_margin_m",
+                self.edge_margin_m,
+                self.edge_margin_m.is_finite() && self.edge_margin_m >= 0.0,
                 "must be zero or positive",
             ),
             (

@@ -116,7 +116,7 @@ pub fn best_look(
     se_m: f64,
     scratch: &mut PlanScratch,
 ) -> Option<Choice> {
-    let absent = map.probabilities(&mut scratch.p);
+    map.probabilities(&mut scratch.p);
     scratch.bins.resize(PLACE_BINS, 0.0);
     let mut best: Option<(f64, Choice)> = None;
     for &c in candidates {
@@ -126,7 +126,7 @@ pub fn best_look(
         {
             continue;
         }
-        let information = map.look_information(&scratch.p, absent, c, se_m, &mut scratch.bins);
+        let information = map.look_information(&scratch.p, c, se_m, &mut scratch.bins);
         if information < MIN_INFORMATION {
             continue;
         }
@@ -168,7 +168,12 @@ mod tests {
         // Every z of the region lies within a row's 80 % reach.
         for k in 0..=40 {
             let z = -0.02 + k as f64 * 1e-3;
-            assert!(looks[..3].iter().any(|p| (p.z_m - z).abs() <= 0.008 + 1e-12), "{z}");
+            assert!(
+                looks[..3]
+                    .iter()
+                    .any(|p| (p.z_m - z).abs() <= 0.008 + 1e-12),
+                "{z}"
+            );
         }
         let c = candidate_looks(&r, 0.002);
         assert_eq!(c.len(), 21 * 21);

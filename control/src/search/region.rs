@@ -32,12 +32,7 @@ pub enum RegionError {
 impl Region {
     /// The region with corners in any order, checked.
     pub fn new(a: SurfacePoint, b: SurfacePoint) -> Result<Self, RegionError> {
-        for (what, v) in [
-            ("x0", a.x_m),
-            ("z0", a.z_m),
-            ("x1", b.x_m),
-            ("z1", b.z_m),
-        ] {
+        for (what, v) in [("x0", a.x_m), ("z0", a.z_m), ("x1", b.x_m), ("z1", b.z_m)] {
             if !v.is_finite() {
                 return Err(RegionError::NonFinite { what });
             }
@@ -90,15 +85,25 @@ impl Region {
     }
 
     pub fn centre(&self) -> SurfacePoint {
-        SurfacePoint::new(
-            0.5 * (self.x0_m + self.x1_m),
-            0.5 * (self.z0_m + self.z1_m),
-        )
+        SurfacePoint::new(0.5 * (self.x0_m + self.x1_m), 0.5 * (self.z0_m + self.z1_m))
     }
 
     /// Is `p` inside (edges included)?
     pub fn contains(&self, p: SurfacePoint) -> bool {
         (self.x0_m..=self.x1_m).contains(&p.x_m) && (self.z0_m..=self.z1_m).contains(&p.z_m)
+    }
+
+    /// The region shrunk by `margin_m` on every side (to its middle line where it is
+    /// narrower than twice the margin). Not validated: it may be a line or a point.
+    pub fn inset(&self, margin_m: f64) -> Region {
+        let mx = margin_m.min(self.width_m() / 2.0);
+        let mz = margin_m.min(self.height_m() / 2.0);
+        Region {
+            x0_m: self.x0_m + mx,
+            z0_m: self.z0_m + mz,
+            x1_m: self.x1_m - mx,
+            z1_m: self.z1_m - mz,
+        }
     }
 
     /// The nearest point of the region to `p`.
@@ -116,14 +121,23 @@ mod tests {
 
     #[test]
     fn corners_in_any_order_and_bad_input_named() {
-        let r = Region::new(SurfacePoint::new(0.02, 0.01), SurfacePoint::new(-0.02, -0.03))
-            .expect("region");
+        let r = Region::new(
+            SurfacePoint::new(0.02, 0.01),
+            SurfacePoint::new(-0.02, -0.03),
+        )
+        .expect("region");
         assert_eq!((r.x0_m, r.z0_m, r.x1_m, r.z1_m), (-0.02, -0.03, 0.02, 0.01));
         assert!(r.contains(r.centre()));
         assert!(!r.contains(SurfacePoint::new(0.021, 0.0)));
-        assert_eq!(r.clamp(SurfacePoint::new(1.0, -1.0)), SurfacePoint::new(0.02, -0.03));
-        let e = Region::new(SurfacePoint::new(f64::NAN, 0.0), SurfacePoint::new(0.02, 0.02))
-            .expect_err("NaN");
+        assert_eq!(
+            r.clamp(SurfacePoint::new(1.0, -1.0)),
+            SurfacePoint::new(0.02, -0.03)
+        );
+        let e = Region::new(
+            SurfacePoint::new(f64::NAN, 0.0),
+            SurfacePoint::new(0.02, 0.02),
+        )
+        .expect_err("NaN");
         assert!(e.to_string().contains("x0"), "{e}");
         let e = Region::square(SurfacePoint::new(0.0, 0.0), 0.001).expect_err("tiny");
         assert!(e.to_string().contains("along x"), "{e}");

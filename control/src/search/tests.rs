@@ -151,9 +151,7 @@ fn finds_an_oblique_artery_and_seeds_on_it() {
         let mut s = searcher(method);
         let (outcome, events) = bench.run(&mut s, 200.0);
         let Some(SearchOutcome::Found {
-            seeds,
-            heading_rad,
-            ..
+            seeds, heading_rad, ..
         }) = outcome
         else {
             panic!("{method:?}: {outcome:?}");
@@ -213,7 +211,10 @@ fn stop_mid_search_ends_at_rest() {
     assert!(s.outcome().is_none());
     s.stop();
     let (outcome, events) = bench.run(&mut s, 4.0);
-    assert!(matches!(outcome, Some(SearchOutcome::Stopped { .. })), "{outcome:?}");
+    assert!(
+        matches!(outcome, Some(SearchOutcome::Stopped { .. })),
+        "{outcome:?}"
+    );
     assert!(matches!(
         events.last(),
         Some(SearchEvent::Finished(SearchOutcome::Stopped { .. }))
@@ -248,8 +249,7 @@ fn bad_parameters_are_named() {
         ..SearchParams::default()
     };
     let e = Searcher::new(p, ArrayGeometry::default(), region(), SearchMethod::Search)
-        .err()
-        .expect("refused");
+        .expect_err("refused");
     assert!(e.to_string().contains("p_detect"), "{e}");
     let p = SearchParams {
         first_look_s: 2.0,
