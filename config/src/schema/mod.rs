@@ -61,6 +61,9 @@ pub struct Config {
     /// The rig's calibration file and the tolerances its procedures are judged by.
     #[serde(default)]
     pub calibration: CalibrationSection,
+    /// The autonomous search of a named region (issue 17; docs/search.md).
+    #[serde(default)]
+    pub search: control::search::SearchParams,
     /// What the gimbal carries; absent: only the arm's own bodies are gravity-compensated.
     #[serde(default)]
     pub instrument: Option<control::pd::gravity::Instrument>,
@@ -97,6 +100,11 @@ impl Validate for Config {
         v.section("recording", &self.recording);
         v.section("live", &self.live);
         v.section("calibration", &self.calibration);
+        if let Err(e) = self.search.validate() {
+            v.at("search", |v| {
+                v.check(false, e.field, format!("{} (got {})", e.why, e.value));
+            });
+        }
         if let Some(r) = &self.rod {
             v.at("rod", |v| {
                 v.positive("bending_stiffness_nm2", r.bending_stiffness_nm2);

@@ -41,6 +41,11 @@ impl SearchMethod {
 
 /// Looks closer than this to a place found unreachable are not chosen, m.
 const UNREACHABLE_RADIUS_M: f64 = 1e-3;
+/// Looks closer than this to an earlier look are not chosen, m: a look repeated in place
+/// repeats the error of where the sensor is believed to be, which the map (taking looks as
+/// independent) would count as new evidence; the search would then stay put and beat that
+/// error down on paper.
+const REPEAT_RADIUS_M: f64 = 2e-3;
 /// Bins of the crossing's spread within a look's reach.
 const PLACE_BINS: usize = 40;
 /// A look worth less than this (nats) is not worth making.
@@ -104,12 +109,14 @@ pub struct Choice {
 }
 
 /// The candidate with the most expected information per second from `from`, skipping
-/// places found unreachable; `None` when no look is worth making.
+/// places found unreachable and places already looked at; `None` when no look is worth
+/// making.
 #[allow(clippy::too_many_arguments)]
 pub fn best_look(
     map: &LineMap,
     candidates: &[SurfacePoint],
     unreachable: &[SurfacePoint],
+    looked: &[SurfacePoint],
     from: SurfacePoint,
     look_s: f64,
     speed_m_s: f64,
@@ -123,6 +130,7 @@ pub fn best_look(
         if unreachable
             .iter()
             .any(|u| u.distance_to(&c) < UNREACHABLE_RADIUS_M)
+            || looked.iter().any(|u| u.distance_to(&c) < REPEAT_RADIUS_M)
         {
             continue;
         }

@@ -30,6 +30,14 @@ const AGREE_SIGMAS: f64 = 3.0;
 /// artery's amplitude, inverted, and the fit places it on the array (measured on the seed's
 /// bench: 2.4-3.6 mN against 45 mN over the artery).
 const FAINT_FRACTION: f64 = 0.3;
+/// Over the outer two elements, the fraction of the strongest placed pulse a pulse needs
+/// (measured on the seed's bench: a flank 1.7 mm beyond the array's end was placed over
+/// its last element at 22 mN against the artery's 44 mN).
+const EDGE_FRACTION: f64 = 0.7;
+/// Moves shorter than this teach nothing about the lag and are not aimed past, m.
+const LAG_MOVE_MIN_M: f64 = 2e-3;
+/// The largest lag believed, m: more is a sensor that did not arrive, not a lag.
+const MAX_LAG_M: f64 = 8e-3;
 /// A pulse placed more loosely than this is a flank, not a place, m.
 const MAX_PLACED_SE_M: f64 = 1e-3;
 /// The SNR the weakest felt pulse is reported at (the detection statistic's scale).
@@ -106,6 +114,13 @@ pub struct Searcher {
     unreachable: Vec<SurfacePoint>,
     scratch: PlanScratch,
     last_target: Option<SurfacePoint>,
+    /// Every look asked for: a place is not asked for twice (where the sensor ended up may
+    /// differ from where it was asked to go, by the rod's bending).
+    asked: Vec<SurfacePoint>,
+    /// How far short of its aim the sensor comes to rest, m, and the move under way (from
+    /// the last look's place to the next look).
+    lag_m: f64,
+    moving: Option<(SurfacePoint, SurfacePoint)>,
 }
 
 impl std::fmt::Debug for Searcher {
@@ -177,6 +192,9 @@ impl Searcher {
             unreachable: Vec::new(),
             scratch: PlanScratch::default(),
             last_target: None,
+            asked: Vec::new(),
+            lag_m: 0.0,
+            moving: None,
             params,
             geometry,
             region,
@@ -344,7 +362,7 @@ impl Searcher {
     fn reading(&self, r: &Record, strongest_n: f64) -> LookReading {
         match r.pulse {
             None => LookReading::Nothing,
-            Some(p) if p.placed && p.point.amplitude_n >= FAINT_FRACTION * strongest_n => {
+            Some(p) if p.placed && p.point.amplitude_n >= self.usual_fraction(r) * strongest_n => {
                 LookReading::Felt {
                     offset_z_m: p.point.point.z_m - r.at.z_m,
                     se_m: p.se_m,
@@ -352,6 +370,20 @@ impl Searcher {
             }
             Some(_) => LookReading::Flank,
         }
+    }
+
+    /// Over the outer elements a flank's pulse (the artery just beyond the array) is
+    /// placed inside it at a fraction of the usual amplitude: there a pulse must have the
+    /// artery's usual amplitude to be placed; elsewhere it must not be faint.
+    fn usual_fraction(&self, r: &Record) -> f64 {
+        match r.pulse {
+            Some(p) if self.over_outer_elements(p.point.point.z_m - r.at.z_m) => EDGE_FRACTION,
+            _ => FAINT_FRACTION,
+        }
+    }
+
+    fn over_outer_elements(&self, offset_z_m: f64) -> bool {
+        offset_z_m.abs() > reach_m(&self.geometry) - 2.0 * self.geometry.pitch_m
     }
 
     fn strongest_n(&self) -> f64 {
@@ -374,6 +406,7 @@ impl Searcher {
     /// Analyse the look just ended, update the map and decide.
     fn end_look(&mut self, t: f64, since_s: f64, now: SurfacePoint) -> MotionCommand {
         let at = self.look_place(now);
+        self.measure_lag(at);
         let sigma = self
             .noise
             .estimate(self.frames.iter())
@@ -465,16 +498,25 @@ impl Searcher {
 
     /// Two felt points, not at the array's edge, that agree with the best line and lie at
     /// least `seed_separation_m` apart along `x`: the pair farthest apart, along `+x`.
+    /// Placed pulses read as the artery's (not faint, not a flank) and felt on the array's
+    /// inner elements: the only points a seed may be.
+    fn inner_felt(&self) -> Vec<Pulse> {
+        let strongest = self.strongest_n();
+        self.records
+            .iter()
+            .filter(|r| matches!(self.reading(r, strongest), LookReading::Felt { .. }))
+            .filter_map(|r| r.pulse)
+            .filter(|p| !self.over_outer_elements(p.point.point.z_m - p.point.sensor.z_m))
+            .collect()
+    }
+
     fn seeds(&self) -> Option<[LocatedPoint; 2]> {
         let (heading, z_c) = self.map.best_line();
         let c = self.region.centre();
         let floor = self.params.place_floor_m;
-        let strongest = self.strongest_n();
         let agree: Vec<Pulse> = self
-            .records
-            .iter()
-            .filter(|r| matches!(self.reading(r, strongest), LookReading::Felt { .. }))
-            .filter_map(|r| r.pulse)
+            .inner_felt()
+            .into_iter()
             .filter(|f| {
                 let z = z_c + heading.tan() * (f.point.point.x_m - c.x_m);
                 let sd = f.se_m.hypot(floor);
@@ -513,13 +555,69 @@ impl Searcher {
         });
     }
 
+    /// Once the map knows the line (an artery to the found probability, its heading to the
+    /// configured confidence) but no pair of seeds agrees with it: a look centred on the
+    /// line, nearest to `from`, at least the seed separation along `x` from any seed felt
+    /// there already (so that the next felt point can pair with it). `None` while the
+    /// line is not known or no such place lies in the region.
+    fn seeding_look(&self, from: SurfacePoint) -> Option<SurfacePoint> {
+        let summary = self.map.summary();
+        let (heading, z_c) = self.map.best_line();
+        if summary.p_present < self.params.found_probability
+            || self
+                .map
+                .heading_mass_within(heading, self.params.heading_tolerance_rad)
+                < self.params.heading_confidence
+        {
+            return None;
+        }
+        let inner: Vec<f64> = self
+            .inner_felt()
+            .iter()
+            .map(|p| p.point.point.x_m)
+            .collect();
+        let c = self.region.centre();
+        let area = self.region.inset(self.params.edge_margin_m);
+        let looked: Vec<SurfacePoint> = self
+            .records
+            .iter()
+            .map(|r| r.at)
+            .chain(self.asked.iter().copied())
+            .collect();
+        let steps = (area.width_m() / self.params.candidate_step_m)
+            .round()
+            .max(1.0) as usize;
+        (0..=steps)
+            .map(|i| area.x0_m + area.width_m() * i as f64 / steps as f64)
+            .filter(|x| {
+                inner.is_empty()
+                    || inner
+                        .iter()
+                        .all(|s| (x - s).abs() >= self.params.seed_separation_m)
+            })
+            .map(|x| SurfacePoint::new(x, z_c + heading.tan() * (x - c.x_m)))
+            .filter(|p| area.contains(*p))
+            .filter(|p| !looked.iter().any(|l| l.distance_to(p) < 1e-3))
+            .filter(|p| !self.unreachable.iter().any(|u| u.distance_to(p) < 1e-3))
+            .min_by(|a, b| from.distance_to(a).total_cmp(&from.distance_to(b)))
+    }
+
     /// Choose the next look and start moving to it.
     fn next_look(&mut self, t: f64, from: SurfacePoint) -> MotionCommand {
+        let seeding = self.seeding_look(from);
         let target = match self.method {
+            // Both methods, once the line is known, put the array on it to seed.
+            _ if seeding.is_some() => seeding,
             plan::SearchMethod::Search => plan::best_look(
                 &self.map,
                 &self.candidates,
                 &self.unreachable,
+                &self
+                    .records
+                    .iter()
+                    .map(|r| r.at)
+                    .chain(self.asked.iter().copied())
+                    .collect::<Vec<_>>(),
                 from,
                 self.look_s(),
                 self.params.speed_m_s,
@@ -541,11 +639,46 @@ impl Searcher {
             self.not_found(t, NotFoundReason::NothingLeftToLearn);
             return MotionCommand::Hold;
         };
-        self.last_target = Some(target);
-        self.state = State::Moving { target };
+        self.asked.push(target);
+        // Aim past the look by the lag measured so far, along the move, so that the sensor
+        // itself comes to rest on it; never outside the region.
+        let (dx, dz) = (target.x_m - from.x_m, target.z_m - from.z_m);
+        let d = dx.hypot(dz);
+        let aim = if d > LAG_MOVE_MIN_M {
+            self.region.clamp(SurfacePoint::new(
+                target.x_m + self.lag_m * dx / d,
+                target.z_m + self.lag_m * dz / d,
+            ))
+        } else {
+            target
+        };
+        self.last_target = Some(aim);
+        self.moving = Some((from, target));
+        self.state = State::Moving { target: aim };
         MotionCommand::MoveTo {
-            target,
+            target: aim,
             speed_m_s: self.params.speed_m_s,
+        }
+    }
+
+    /// How far the sensor came to rest short of the look just made, along the move to it
+    /// (the rod bends, and the tissue's friction holds the sensor back): averaged into the
+    /// lag the next moves aim past.
+    fn measure_lag(&mut self, at: SurfacePoint) {
+        let Some((from, target)) = self.moving.take() else {
+            return;
+        };
+        let (dx, dz) = (target.x_m - from.x_m, target.z_m - from.z_m);
+        let d = dx.hypot(dz);
+        if d <= LAG_MOVE_MIN_M {
+            return;
+        }
+        let aimed_past = self.lag_m;
+        // Short of the aim, in the direction of the move.
+        let short = ((target.x_m - at.x_m) * dx + (target.z_m - at.z_m) * dz) / d + aimed_past;
+        if short.is_finite() {
+            let measured = short.clamp(0.0, MAX_LAG_M);
+            self.lag_m = 0.5 * (self.lag_m + measured);
         }
     }
 }

@@ -71,6 +71,16 @@ pub struct Args {
     /// shipped simulator configuration.
     #[arg(long)]
     pub config: Option<PathBuf>,
+    /// What to measure: `track` (follow an artery from two placements) or `search` (find
+    /// one in a region without being shown; docs/search.md).
+    #[arg(long, default_value = "track", value_parser = ["track", "search"])]
+    pub task: String,
+    /// With `--task search`: the side of the square region, mm.
+    #[arg(long, default_value_t = 40.0)]
+    pub region_mm: f64,
+    /// With `--task search`: the methods, comma-separated (`search`, `raster`).
+    #[arg(long, default_value = "search,raster")]
+    pub methods: String,
 }
 
 /// A tracker and its speed setting.
@@ -182,6 +192,9 @@ fn run_inner(args: &Args) -> Result<(), String> {
     }
     let config = load_config(args.config.as_deref())?;
     let mut sources = Vec::new();
+    if args.task == "search" {
+        return run_search_task(args, &config);
+    }
     let scene_patterns = match (&args.scenes, &args.families) {
         (Some(p), _) => Some(p.as_str()),
         (None, None) => Some("seed-arc-*,seed-s-curve"),
@@ -211,6 +224,65 @@ fn run_inner(args: &Args) -> Result<(), String> {
             eprintln!("wrote {}", f.display());
         }
     }
+    if args.json {
+        let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        outln!("{text}");
+    } else {
+        print_table(&report);
+    }
+    Ok(())
+}
+
+/// `--task search`: the search against its baseline on drawn regions.
+fn run_search_task(args: &Args, config: &Config) -> Result<(), String> {
+    use crate::cli::bench_search::{Rig, bench_search, print_table};
+    let side_m = args.region_mm * 1e-3;
+    if !(args.region_mm.is_finite()
+        && (control::search::region::MIN_SIDE_M..=control::search::region::MAX_SIDE_M)
+            .contains(&side_m))
+    {
+        return Err(format!(
+            "--region-mm {}: must lie within {} to {} mm",
+            args.region_mm,
+            control::search::region::MIN_SIDE_M * 1e3,
+            control::search::region::MAX_SIDE_M * 1e3
+        ));
+    }
+    let mut methods = Vec::new();
+    for m in args
+        .methods
+        .split(',')
+        .map(str::trim)
+        .filter(|m| !m.is_empty())
+    {
+        let method = control::search::SearchMethod::parse(m).ok_or_else(|| {
+            format!("--methods: unknown method {m:?}; known methods: search, raster")
+        })?;
+        if !methods.contains(&method) {
+            methods.push(method);
+        }
+    }
+    if methods.is_empty() {
+        return Err("--methods: name at least one method (search, raster)".into());
+    }
+    if args.scenes.is_some() || args.dump_scene.is_some() || args.plot.is_some() {
+        return Err(
+            "--task search draws its own regions: --scenes, --dump-scene and --plot do not apply (use --families for other rigs)"
+                .into(),
+        );
+    }
+    let mut rigs = Vec::new();
+    match &args.families {
+        Some(p) => {
+            for f in select_families(p)? {
+                rigs.push(Rig::Family(Box::new(f)));
+            }
+        }
+        None => rigs.push(Rig::Seed(Box::new(
+            sim::scene::load("seed-arc-145", None).map_err(|e| e.to_string())?,
+        ))),
+    }
+    let report = bench_search(config, &rigs, &methods, side_m, args.trials, args.seed)?;
     if args.json {
         let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
         outln!("{text}");

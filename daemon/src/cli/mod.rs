@@ -1,6 +1,7 @@
 //! The `pulsetrack` command line: one module per subcommand.
 
 mod bench;
+mod bench_search;
 mod bound;
 mod calibrate;
 mod check_config;
