@@ -1,6 +1,6 @@
 //! Print every look of search trials on drawn regions, for studying where a search spends
 //! its heartbeats: `cargo run --release -p pulsetrack-sim --example search_trace -- search
-//! 9001 9010` (method, first seed, last seed).
+//! 9001 9010 [FAMILY]` (method, first seed, last seed, and a family to draw the rig from).
 
 use control::frames::SurfacePoint;
 use control::search::{SearchMethod, SearchParams};
@@ -13,8 +13,17 @@ fn main() -> Result<(), String> {
     let last: u64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(first);
     let (cname, text) = config::shipped::SIM_CONFIG;
     let cfg = config::load_str(cname, text).map_err(|e| e.to_string())?;
-    let base = pulsetrack_sim::scene::load("seed-arc-145", None).map_err(|e| e.to_string())?;
+    let family = match args.get(4) {
+        Some(name) => Some(pulsetrack_sim::family::load(name, None).map_err(|e| e.to_string())?),
+        None => None,
+    };
+    let seed_bench =
+        pulsetrack_sim::scene::load("seed-arc-145", None).map_err(|e| e.to_string())?;
     for seed in first..=last {
+        let base = match &family {
+            Some(f) => f.draw(seed)?,
+            None => seed_bench.clone(),
+        };
         let d = pulsetrack_sim::search_scene::draw(&base, SurfacePoint::new(0.0, 0.0), 0.04, seed)?;
         let t = pulsetrack_sim::runner::search::run_search(
             &d.scene,

@@ -15,8 +15,12 @@ pub struct SearchParams {
     pub detection_threshold: f64,
     /// A look before any pulse has been felt, s: it must hold 2.5 of the longest periods.
     pub first_look_s: f64,
-    /// A look once the heart's period is known, in periods.
+    /// A look once the heart's period is known: at least this many periods, and long
+    /// enough for the strongest pulse felt so far to reach `look_snr` (its kernel fit's
+    /// amplitude over its SE), up to `max_look_s`.
     pub look_periods: f64,
+    pub look_snr: f64,
+    pub max_look_s: f64,
     /// Time at rest after arriving before a look starts (the tissue's creep), s.
     pub settle_s: f64,
     /// Speed between looks, m/s.
@@ -60,6 +64,8 @@ impl Default for SearchParams {
             detection_threshold: 8.0,
             first_look_s: 4.0,
             look_periods: 2.0,
+            look_snr: 8.0,
+            max_look_s: 10.0,
             settle_s: 0.3,
             speed_m_s: 0.015,
             max_heading_rad: 60f64.to_radians(),
@@ -97,6 +103,8 @@ impl SearchParams {
             ("detection_threshold", self.detection_threshold),
             ("first_look_s", self.first_look_s),
             ("look_periods", self.look_periods),
+            ("look_snr", self.look_snr),
+            ("max_look_s", self.max_look_s),
             ("speed_m_s", self.speed_m_s),
             ("offset_step_m", self.offset_step_m),
             ("heading_step_rad", self.heading_step_rad),

@@ -5,7 +5,7 @@ use std::collections::VecDeque;
 use crate::frames::SurfacePoint;
 use crate::sensor::ArrayGeometry;
 use crate::signal::noise_level::NoiseLevel;
-use crate::signal::placed_pulse::placed_pulse;
+use crate::signal::placed_pulse::{PlacedPulse, placed_pulse};
 use crate::signal::pulse_search::{PulseSearch, PulseSearchSettings};
 use crate::tracker::{LocatedPoint, MotionCommand, TrackerInput};
 use crate::types::{ELEMENTS, TactileFrame};
@@ -34,6 +34,10 @@ const FAINT_FRACTION: f64 = 0.3;
 /// (measured on the seed's bench: a flank 1.7 mm beyond the array's end was placed over
 /// its last element at 22 mN against the artery's 44 mN).
 const EDGE_FRACTION: f64 = 0.7;
+/// How much better a pulse must fit the kernel than its inverse to be placed: a
+/// likelihood ratio of 100, as `beatslide`'s marks require (a weak pulse of unknown sign
+/// was placed on the wrong side of the array, 15 mm off, on a fast, weak heart).
+const SIGN_MARGIN_CHI2: f64 = 9.21;
 /// Moves shorter than this teach nothing about the lag and are not aimed past, m.
 const LAG_MOVE_MIN_M: f64 = 2e-3;
 /// The largest lag believed, m: more is a sensor that did not arrive, not a lag.
@@ -121,6 +125,8 @@ pub struct Searcher {
     /// the last look's place to the next look).
     lag_m: f64,
     moving: Option<(SurfacePoint, SurfacePoint)>,
+    /// The strongest placed pulse's kernel SNR over the square root of its look's length.
+    snr_per_root_s: Option<f64>,
 }
 
 impl std::fmt::Debug for Searcher {
@@ -195,6 +201,7 @@ impl Searcher {
             asked: Vec::new(),
             lag_m: 0.0,
             moving: None,
+            snr_per_root_s: None,
             params,
             geometry,
             region,
@@ -318,7 +325,16 @@ impl Searcher {
     /// The length of the next look, s.
     fn look_s(&self) -> f64 {
         match self.period_s {
-            Some(p) => self.params.look_periods * p * (1.0 + KNOWN_PERIOD_RANGE),
+            Some(p) => {
+                let shortest = self.params.look_periods * p * (1.0 + KNOWN_PERIOD_RANGE);
+                // Long enough that the artery's pulse, as strong as the strongest felt,
+                // reaches the look SNR: a weak pulse is felt by waiting, and a look too short
+                // to feel it would count as a miss against where it is.
+                let needed = self
+                    .snr_per_root_s
+                    .map_or(0.0, |r| (self.params.look_snr / r).powi(2));
+                needed.clamp(shortest, self.params.max_look_s.max(shortest))
+            }
             None => self.params.first_look_s,
         }
     }
@@ -422,9 +438,25 @@ impl Searcher {
         self.looks += 1;
         let mut period = None;
         let pulse = match placed {
-            Ok((found, fit)) => {
+            Ok(PlacedPulse {
+                found,
+                fit,
+                sign_margin_chi2,
+            }) => {
                 let p = found.phase.period_s;
                 period = Some(p);
+                let rate = fit.snr() / (t - since_s).max(f64::MIN_POSITIVE).sqrt();
+                // Only a pulse placed on the inner elements, of known sign: a far lobe's
+                // faint pulse must not stretch every look to the limit.
+                if fit.amplitude > 0.0
+                    && !fit.at_edge
+                    && sign_margin_chi2 >= SIGN_MARGIN_CHI2
+                    && !self.over_outer_elements(fit.offset_z_m)
+                    && rate.is_finite()
+                    && self.snr_per_root_s.is_none_or(|r| rate > r)
+                {
+                    self.snr_per_root_s = Some(rate);
+                }
                 self.period_s = Some(self.period_s.map_or(p, |old| 0.5 * (old + p)));
                 Some(Pulse {
                     point: LocatedPoint {
@@ -438,6 +470,7 @@ impl Searcher {
                     },
                     se_m: fit.offset_se_m,
                     placed: !fit.at_edge
+                        && sign_margin_chi2 >= SIGN_MARGIN_CHI2
                         && fit.amplitude > 0.0
                         && fit.offset_se_m <= MAX_PLACED_SE_M
                         && (0.0..=(ELEMENTS - 1) as f64).contains(&fit.element),

@@ -111,14 +111,20 @@ pub fn run_search(
         for p in seeds {
             // Where the sensor truly was at the seed's look (the look's event carries the
             // same time), not at the search's end.
-            let truly = looks_made
-                .iter()
-                .find(|(r, _)| r.t_s == p.t_s)
-                .map_or_else(|| l.true_sensor_at(p.t_s), |(_, s)| *s);
+            let look = looks_made.iter().find(|(r, _)| r.t_s == p.t_s);
+            let truly = look.map_or_else(|| l.true_sensor_at(p.t_s), |(_, s)| *s);
             let point = SurfacePoint::new(
                 truly.x_m + (p.point.x_m - p.sensor.x_m),
                 truly.z_m + (p.point.z_m - p.sensor.z_m),
             );
+            // Tissue moving with breathing carries the artery: scored where it lay at the
+            // look's middle, as tracking trials score their points.
+            let mid_s = look.map_or(p.t_s, |(r, _)| r.t_s - r.duration_s / 2.0);
+            let point = scene
+                .tissue
+                .breathing
+                .as_ref()
+                .map_or(point, |b| b.to_rest(point, mid_s));
             seed_errors_m.push(l.bench.path().nearest(point).offset_m.abs());
         }
     }

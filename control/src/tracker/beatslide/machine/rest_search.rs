@@ -170,6 +170,7 @@ fn placed_pulse(
     geometry: &ArrayGeometry,
 ) -> Result<(PulseFound, KernelFit), Miss> {
     crate::signal::placed_pulse::placed_pulse(search, window.frames(), sigma, settings, geometry)
+        .map(|p| (p.found, p.fit))
         .map_err(|e| match e {
             PlaceMiss::Search(m) => Miss::Search(m),
             PlaceMiss::Kernel(k) => Miss::Kernel(k),
