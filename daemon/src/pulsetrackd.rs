@@ -403,6 +403,7 @@ impl Daemon {
             min_free_bytes: c.recording.min_free_bytes,
             trial_metadata: crate::recording::provenance::static_records(&loaded),
             arm: c.robot.arm_model().ok(),
+            search: c.search,
             arrival_tolerance_m: c.control.motion.settle_tolerance_m,
         };
         let sup = Supervisor::new(

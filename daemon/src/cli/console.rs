@@ -505,6 +505,52 @@ pub fn describe_event(e: &Value) -> Option<String> {
                 None => "?".to_string(),
             }
         )),
+        "search" => Some(match e["kind"].as_str()? {
+            "started" => format!(
+                "[{t:9.3} s] search ({}) of x {} to {}, z {} to {} started",
+                e["method"].as_str().unwrap_or("?"),
+                mm(&e["region"]["x0_m"]),
+                mm(&e["region"]["x1_m"]),
+                mm(&e["region"]["z0_m"]),
+                mm(&e["region"]["z1_m"])
+            ),
+            "look" => format!(
+                "[{t:9.3} s] look {} at x {} z {} ({:.1} s): {}; artery here {:.0} %",
+                e["looks"],
+                mm(&e["at"]["x_m"]),
+                mm(&e["at"]["z_m"]),
+                e["duration_s"].as_f64().unwrap_or(f64::NAN),
+                if e["felt"].is_object() {
+                    format!(
+                        "felt at x {} z {}",
+                        mm(&e["felt"]["point"]["x_m"]),
+                        mm(&e["felt"]["point"]["z_m"])
+                    )
+                } else {
+                    "no placed pulse".to_string()
+                },
+                e["p_present"].as_f64().unwrap_or(f64::NAN) * 100.0
+            ),
+            "finished" => match e["outcome"].as_str()? {
+                "found" => format!(
+                    "[{t:9.3} s] search found the artery after {} looks: seeds at x {} z {} and x {} z {}, heading {:.1} deg",
+                    e["looks"],
+                    mm(&e["seeds"][0]["point"]["x_m"]),
+                    mm(&e["seeds"][0]["point"]["z_m"]),
+                    mm(&e["seeds"][1]["point"]["x_m"]),
+                    mm(&e["seeds"][1]["point"]["z_m"]),
+                    e["heading_rad"].as_f64().unwrap_or(f64::NAN).to_degrees()
+                ),
+                "not_found" => format!(
+                    "[{t:9.3} s] search found no artery after {} looks ({}): a pulse under {:.1} mN on its strongest element may have been missed",
+                    e["looks"],
+                    e["reason"].as_str().unwrap_or("?"),
+                    e["weakest_felt_n"].as_f64().unwrap_or(f64::NAN) * 1e3
+                ),
+                other => format!("[{t:9.3} s] search {other} after {} looks", e["looks"]),
+            },
+            _ => return None,
+        }),
         "lagged" => Some(format!("(missed {} events)", e["dropped"])),
         _ => None,
     }

@@ -16,6 +16,7 @@ mod man;
 mod progress;
 mod recover;
 mod replay;
+mod search;
 mod sim;
 mod stdout;
 
@@ -63,6 +64,9 @@ pub(crate) enum Command {
     /// Run a step of a rig calibration procedure on the daemon and print its result
     /// (docs/rig-bring-up.md).
     Calibrate(calibrate::CalibrateArgs),
+    /// Find the artery in a region of the tissue surface without being shown, and with
+    /// --then-track follow it (docs/search.md).
+    Search(search::Args),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
     Completions(completions::Args),
     /// Print the man page, or write one page per subcommand into a directory.
@@ -118,6 +122,7 @@ pub fn run() -> ExitCode {
         Command::Bound(args) => bound::run(&args),
         Command::Bench(args) => bench::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
+        Command::Search(args) => search::run(&args),
         Command::Completions(args) => completions::run(&args),
         Command::Man(args) => man::run(&args),
     }

@@ -25,16 +25,19 @@ pub enum Stream {
     Trials,
     /// Calibration recordings: started, and their results.
     Calibration,
+    /// Autonomous searches: started, every look, and how each ended.
+    Search,
 }
 
 impl Stream {
-    pub const ALL: [Stream; 6] = [
+    pub const ALL: [Stream; 7] = [
         Stream::State,
         Stream::Tactile,
         Stream::Detections,
         Stream::Faults,
         Stream::Trials,
         Stream::Calibration,
+        Stream::Search,
     ];
 }
 
@@ -72,6 +75,11 @@ pub enum Verb {
     Unsubscribe,
     /// A step of a rig calibration procedure.
     Calibrate(CalibrateStep),
+    /// Find the artery in a region of the tissue surface (docs/search.md).
+    Search {
+        region: control::search::Region,
+        method: control::search::SearchMethod,
+    },
     /// Test hooks, refused unless `console.debug_hooks` is set.
     Debug(DebugAction),
 }
@@ -138,6 +146,7 @@ impl Verb {
             Verb::Subscribe { .. } => "subscribe",
             Verb::Unsubscribe => "unsubscribe",
             Verb::Calibrate(_) => "calibrate",
+            Verb::Search { .. } => "search",
             Verb::Debug(_) => "debug",
         }
     }
@@ -203,6 +212,13 @@ impl Verb {
                     put("load_per_element_n", (*load_per_element_n).into());
                 }
             }
+            Verb::Search { region, method } => {
+                put("x0_m", region.x0_m.into());
+                put("z0_m", region.z0_m.into());
+                put("x1_m", region.x1_m.into());
+                put("z1_m", region.z1_m.into());
+                put("method", method.as_str().into());
+            }
             Verb::Status
             | Verb::Enable
             | Verb::Disable
@@ -245,7 +261,7 @@ fn check_label(id: u64, label: &str) -> Result<(), RequestError> {
 }
 
 /// Every verb the daemon knows, for error messages and the CLI.
-pub const VERBS: [&str; 17] = [
+pub const VERBS: [&str; 18] = [
     "status",
     "enable",
     "disable",
@@ -262,6 +278,7 @@ pub const VERBS: [&str; 17] = [
     "subscribe",
     "unsubscribe",
     "calibrate",
+    "search",
     "debug",
 ];
 
@@ -467,6 +484,7 @@ pub fn parse_request(line: &[u8], limits: &ParseLimits) -> Result<Request, Reque
             Verb::Track { length_m, label }
         }
         "calibrate" => Verb::Calibrate(calibrate_request::parse(&mut args)?),
+        "search" => search_request::parse(&mut args, limits)?,
         "subscribe" => {
             let streams = match args.obj.remove("streams") {
                 None => Stream::ALL.to_vec(),
@@ -475,7 +493,7 @@ pub fn parse_request(line: &[u8], limits: &ParseLimits) -> Result<Request, Reque
                         Some(id),
                         ErrorCode::BadArgument,
                         format!(
-                            "`streams` must be a list of state, tactile, detections, faults, trials, calibration: {e}"
+                            "`streams` must be a list of state, tactile, detections, faults, trials, calibration, search: {e}"
                         ),
                     )
                 })?,
@@ -542,6 +560,8 @@ pub fn parse_request(line: &[u8], limits: &ParseLimits) -> Result<Request, Reque
 
 #[path = "calibrate_request.rs"]
 mod calibrate_request;
+#[path = "search_request.rs"]
+mod search_request;
 
 struct Args {
     id: u64,

@@ -10,6 +10,7 @@ pub mod calibration;
 mod live_view;
 mod report;
 mod requests;
+mod search;
 pub mod state;
 mod tracking;
 pub mod trial;
@@ -101,6 +102,8 @@ pub struct SupervisorSettings {
     pub trial_metadata: Vec<MetadataRecord>,
     /// The arm's geometry, to record its frame tree (`None`: not recorded).
     pub arm: Option<control::kinematics::ArmModel>,
+    /// How the `search` verb explores a region (the config's `search` section).
+    pub search: control::search::SearchParams,
     /// How near its target a motion must come to rest to have arrived, m (the motion
     /// planner's `settle_tolerance_m`).
     pub arrival_tolerance_m: f64,
@@ -207,6 +210,8 @@ pub struct Supervisor {
     /// The believed sensor positions while no trial runs: the approach to the first
     /// placement, handed to the next trial's tracker at its first mark.
     approach: ApproachTrail,
+    /// The autonomous search under way, if any (state `searching`).
+    searcher: Option<control::search::Searcher>,
     pending: Vec<Pending>,
     timing: Option<PeriodSummary>,
     overruns_reported: u64,
@@ -279,6 +284,7 @@ impl Supervisor {
             placement: None,
             tracker_target: None,
             approach: ApproachTrail::default(),
+            searcher: None,
             pending: Vec::new(),
             timing: None,
             overruns_reported: 0,
@@ -821,6 +827,7 @@ impl Supervisor {
         tracing::error!(target: ALREADY_ON_LOG, "FAULT latched: {reason}");
         self.log_line(f.t_s, level::ERROR, format!("FAULT latched: {reason}"));
         let dump = self.dump_flight_recorder(&f);
+        self.search_abort();
         self.end_trial(TrialEnd::Fault);
         self.fault = Some((f, dump.clone()));
         self.set_state(OpState::Fault);

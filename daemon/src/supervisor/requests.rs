@@ -63,6 +63,7 @@ impl Supervisor {
                 );
             }
             Verb::Disable => {
+                self.search_abort();
                 self.end_trial(TrialEnd::Disabled);
                 let seq = self.seq();
                 self.send(
@@ -131,6 +132,7 @@ impl Supervisor {
                     return self.reply_ok(id, to, json!({}), false);
                 }
                 match self.state {
+                    OpState::Searching => self.search_abort(),
                     OpState::Tracking | OpState::Paused => {
                         self.tracker_stop();
                         self.end_trial(TrialEnd::Tracker(control::tracker::EndReason::Stopped));
@@ -158,6 +160,7 @@ impl Supervisor {
                 self.place_array(id, to, load_per_element_n)
             }
             Verb::Calibrate(step) => self.calibrate(id, to, step),
+            Verb::Search { region, method } => self.search_start(id, to, region, method),
         }
     }
 

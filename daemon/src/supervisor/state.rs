@@ -5,6 +5,7 @@
 //!                      holding --mark--> seeding --located/missed--> holding
 //!                      holding (2 seeds) --track--> tracking <--pause/resume--> paused
 //!                      tracking --finished/stop--> done --move/mark/...--> (as holding)
+//!                      holding (no trial) --search--> searching --found/not found/stop--> holding
 //! any --fault/estop--> fault --reset--> disabled        enabled states --disable--> disabled
 //! ```
 
@@ -23,6 +24,8 @@ pub enum OpState {
     Moving,
     /// Acquiring at a manual placement (a mark).
     Seeding,
+    /// Finding the artery in a region on its own (a search).
+    Searching,
     /// Following the artery.
     Tracking,
     /// Tracking suspended, holding still.
@@ -40,6 +43,7 @@ impl OpState {
             OpState::Holding => "holding",
             OpState::Moving => "moving",
             OpState::Seeding => "seeding",
+            OpState::Searching => "searching",
             OpState::Tracking => "tracking",
             OpState::Paused => "paused",
             OpState::Done => "done",
@@ -74,7 +78,12 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
     let refuse = |why: &str| Err(format!("cannot {} while {s}: {why}", verb.name()));
     let moves_or_marks = matches!(
         verb,
-        Verb::Home | Verb::Jog { .. } | Verb::Move { .. } | Verb::Mark | Verb::Track { .. }
+        Verb::Home
+            | Verb::Jog { .. }
+            | Verb::Move { .. }
+            | Verb::Mark
+            | Verb::Track { .. }
+            | Verb::Search { .. }
     );
     if ctx.calibrating && moves_or_marks {
         return refuse("a calibration recording is under way; wait for it or stop it");
@@ -88,6 +97,18 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
             S::Fault => refuse("a fault is latched; reset first"),
             S::Moving => refuse("wait for the move to settle"),
             S::Seeding | S::Tracking | S::Paused => refuse("a trial is running; stop it first"),
+            S::Searching => refuse("a search is running; stop it first"),
+        },
+        Verb::Search { .. } => match state {
+            S::Holding | S::Done if ctx.trial_open => {
+                refuse("a trial is open (a seed is marked); stop it first")
+            }
+            S::Holding | S::Done => Ok(()),
+            S::Disabled => refuse("enable first"),
+            S::Fault => refuse("a fault is latched; reset first"),
+            S::Moving => refuse("wait for the move to settle"),
+            S::Seeding | S::Tracking | S::Paused => refuse("a trial is running; stop it first"),
+            S::Searching => refuse("already searching"),
         },
         Verb::Status | Verb::Subscribe { .. } | Verb::Unsubscribe | Verb::Estop => Ok(()),
         Verb::Debug(_) => {
@@ -114,6 +135,7 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
             S::Moving => refuse("a move is under way; stop it first"),
             S::Seeding => refuse("a mark is acquiring; wait for it or stop"),
             S::Tracking | S::Paused => refuse("a track is running; stop it first"),
+            S::Searching => refuse("a search is running; stop it first"),
         },
         Verb::Mark => match state {
             S::Holding | S::Done => {
@@ -128,6 +150,7 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
             S::Moving => refuse("wait for the move to settle"),
             S::Seeding => refuse("a mark is already acquiring"),
             S::Tracking | S::Paused => refuse("a track is running"),
+            S::Searching => refuse("a search is running; stop it first"),
         },
         Verb::Track { .. } => match state {
             S::Holding => {
@@ -147,6 +170,9 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
             S::Seeding => refuse("wait for the mark to finish"),
             S::Tracking => refuse("already tracking"),
             S::Paused => refuse("paused; resume instead"),
+            S::Searching => {
+                refuse("a search is running; it seeds no tracker itself (docs/search.md)")
+            }
         },
         Verb::Pause => match state {
             S::Tracking => Ok(()),
@@ -159,7 +185,7 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
         },
         Verb::Stop => match state {
             _ if ctx.calibrating && state != S::Fault => Ok(()),
-            S::Moving | S::Seeding | S::Tracking | S::Paused => Ok(()),
+            S::Moving | S::Seeding | S::Searching | S::Tracking | S::Paused => Ok(()),
             S::Holding | S::Done => refuse("nothing is moving"),
             S::Disabled => refuse("power is off"),
             S::Fault => refuse("a fault is latched; power is already off"),
@@ -175,11 +201,12 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
 mod tests {
     use super::*;
 
-    const ALL: [OpState; 8] = [
+    const ALL: [OpState; 9] = [
         OpState::Disabled,
         OpState::Holding,
         OpState::Moving,
         OpState::Seeding,
+        OpState::Searching,
         OpState::Tracking,
         OpState::Paused,
         OpState::Done,
@@ -245,12 +272,47 @@ mod tests {
         assert_eq!(accepted(&Verb::Resume, 2), vec![Paused]);
         assert_eq!(
             accepted(&Verb::Stop, 2),
-            vec![Moving, Seeding, Tracking, Paused]
+            vec![Moving, Seeding, Searching, Tracking, Paused]
         );
         assert_eq!(
             accepted(&Verb::Disable, 0),
-            vec![Holding, Moving, Seeding, Tracking, Paused, Done]
+            vec![Holding, Moving, Seeding, Searching, Tracking, Paused, Done]
         );
+        let search = Verb::Search {
+            region: control::search::Region::square(
+                control::frames::SurfacePoint::new(0.0, 0.0),
+                0.04,
+            )
+            .expect("region"),
+            method: control::search::SearchMethod::Search,
+        };
+        assert_eq!(accepted(&search, 0), vec![Holding, Done]);
+        // Not over an open trial, nor during a calibration recording.
+        let open = Context {
+            trial_open: true,
+            ..ctx(1)
+        };
+        assert!(ALL.iter().all(|s| admit(*s, &search, &open).is_err()));
+        let calibrating = Context {
+            calibrating: true,
+            ..ctx(0)
+        };
+        assert!(
+            ALL.iter()
+                .all(|s| admit(*s, &search, &calibrating).is_err())
+        );
+        // Nothing moves the arm or marks while a search runs.
+        for verb in [
+            Verb::Mark,
+            Verb::Home,
+            Verb::Track {
+                length_m: None,
+                label: None,
+            },
+            search.clone(),
+        ] {
+            assert!(admit(Searching, &verb, &ctx(0)).is_err(), "{verb:?}");
+        }
     }
 
     #[test]

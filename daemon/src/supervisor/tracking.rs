@@ -35,6 +35,9 @@ impl Supervisor {
         if self.state == OpState::Moving && settled {
             self.set_state(OpState::Holding);
         }
+        if self.searcher.is_some() {
+            return self.search_frame(&f, settled);
+        }
         if !fed {
             return;
         }
@@ -108,6 +111,7 @@ impl Supervisor {
             self.tracker_stop();
             self.end_trial(TrialEnd::ShortOfTarget);
         }
+        let searching = self.searcher.is_some();
         // The loop holds a stopped-short motion where the arm is, not at its target.
         let hold = self.seq();
         self.motion_seq = hold;
@@ -126,7 +130,10 @@ impl Supervisor {
                 .placement
                 .and_then(|(placed, target)| (placed == seq).then_some(target)),
         });
-        if tracking {
+        if searching {
+            // Not an end: the search looks elsewhere, from where the arm rests.
+            self.search_stopped_short();
+        } else if tracking {
             self.set_state(OpState::Done);
         } else if self.state == OpState::Moving {
             self.set_state(OpState::Holding);

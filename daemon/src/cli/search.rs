@@ -1,0 +1,282 @@
+//! `pulsetrack search --region X0,Z0,X1,Z1 [--method search|raster] [--then-track
+//! [--length-mm L]]`: asks the daemon to find the artery in a region of the tissue surface
+//! (millimetres here, metres on the wire; docs/search.md), prints each look and the
+//! outcome, and with `--then-track` seeds a track at the two points it found exactly as a
+//! surgeon would (move, mark, move, mark, track) and follows it to its end.
+//!
+//! Exit codes: 0 found (and, with `--then-track`, the track reached its length); 1 not
+//! found, stopped, or the track did not complete; 2 a bad command line; 3 the daemon
+//! unreachable.
+
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use serde_json::{Value, json};
+
+use crate::cli::console::{Conn, describe_event, print_summary};
+use crate::cli::failure;
+use crate::cli::stdout::outln;
+use crate::console::client::Client;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    pub conn: Conn,
+    /// The region's corners, mm, tissue frame: x0,z0,x1,z1 (any two opposite corners).
+    #[arg(long, value_name = "X0,Z0,X1,Z1", allow_hyphen_values = true)]
+    pub region: String,
+    /// How to explore: `search` (the most information per heartbeat) or `raster`.
+    #[arg(long, default_value = "search", value_parser = ["search", "raster"])]
+    pub method: String,
+    /// Once found, mark the two points and track the artery from them.
+    #[arg(long)]
+    pub then_track: bool,
+    /// With --then-track: how much artery to follow, mm (default: until it is lost).
+    #[arg(long, value_name = "MM", requires = "then_track")]
+    pub length_mm: Option<f64>,
+}
+
+const NAME: &str = "search";
+const T: Duration = Duration::from_secs(15);
+/// Marks tried at a seed point before giving up (as `demo` and the lockstep runner do).
+const MARK_ATTEMPTS: usize = 3;
+
+/// The region's corners in metres, from `x0,z0,x1,z1` in millimetres.
+pub fn parse_region(s: &str) -> Result<[f64; 4], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 4 {
+        return Err(format!(
+            "--region {s:?}: give four numbers in mm, x0,z0,x1,z1 (got {})",
+            parts.len()
+        ));
+    }
+    let mut out = [0.0; 4];
+    for (i, (p, name)) in parts.iter().zip(["x0", "z0", "x1", "z1"]).enumerate() {
+        let v: f64 = p
+            .parse()
+            .map_err(|_| format!("--region: {name} = {p:?} is not a number (mm)"))?;
+        if !v.is_finite() {
+            return Err(format!("--region: {name} = {p:?} is not a finite number"));
+        }
+        out[i] = v * 1e-3;
+    }
+    Ok(out)
+}
+
+pub fn run(args: &Args) -> ExitCode {
+    let json_out = args.conn.json;
+    let region = match parse_region(&args.region) {
+        Ok(r) => r,
+        Err(e) => return failure::report(NAME, json_out, failure::Failure::Usage, &e),
+    };
+    if let Some(l) = args.length_mm
+        && !(l.is_finite() && l > 0.0)
+    {
+        return failure::report(
+            NAME,
+            json_out,
+            failure::Failure::Usage,
+            &format!("--length-mm {l}: must be a positive number of millimetres"),
+        );
+    }
+    let mut c = match args.conn.connect() {
+        Ok(c) => c,
+        Err(e) => return failure::report(NAME, json_out, failure::Failure::Unreachable, &e),
+    };
+    match run_on(&mut c, args, region) {
+        Ok(code) => code,
+        Err(e) => failure::failed(NAME, json_out, &e),
+    }
+}
+
+fn run_on(c: &mut Client, args: &Args, r: [f64; 4]) -> Result<ExitCode, String> {
+    let raw = args.conn.json;
+    c.call(
+        "subscribe",
+        json!({"streams": ["search", "faults", "detections", "trials"]}),
+        T,
+    )
+    .map_err(|e| e.to_string())?;
+    let reply = c
+        .request(
+            NAME,
+            json!({"x0_m": r[0], "z0_m": r[1], "x1_m": r[2], "z1_m": r[3], "method": args.method}),
+            T,
+        )
+        .map_err(|e| e.to_string())?;
+    if reply["ok"] != Value::Bool(true) {
+        if raw {
+            outln!("{reply}");
+        } else {
+            eprintln!(
+                "search: refused: {} [{}]",
+                reply["reason"].as_str().unwrap_or("?"),
+                reply["error"].as_str().unwrap_or("?")
+            );
+        }
+        return Ok(ExitCode::FAILURE);
+    }
+    let outcome = loop {
+        let Some(e) = c
+            .next_event(Duration::from_secs(600))
+            .map_err(|e| e.to_string())?
+        else {
+            return Err("no word from the search for 10 minutes".into());
+        };
+        if e["event"] == "fault" {
+            return Err(describe_event(&e).unwrap_or_else(|| "the daemon faulted".into()));
+        }
+        if e["event"] != "search" {
+            continue;
+        }
+        if raw {
+            outln!("{e}");
+        } else if let Some(line) = describe_event(&e) {
+            outln!("{line}");
+        }
+        if e["kind"] == "finished" {
+            break e;
+        }
+    };
+    if outcome["outcome"] != "found" {
+        return Ok(ExitCode::FAILURE);
+    }
+    if !args.then_track {
+        return Ok(ExitCode::SUCCESS);
+    }
+    let seeds = &outcome["seeds"];
+    for i in 0..2 {
+        let (Some(x), Some(z)) = (
+            seeds[i]["point"]["x_m"].as_f64(),
+            seeds[i]["point"]["z_m"].as_f64(),
+        ) else {
+            return Err("the search's outcome names no seed points".into());
+        };
+        if !raw {
+            outln!(
+                "seed {}: moving to ({:.1}, {:.1}) mm and marking",
+                i + 1,
+                x * 1e3,
+                z * 1e3
+            );
+        }
+        c.call("move", json!({"x_m": x, "z_m": z}), T)
+            .map_err(|e| e.to_string())?;
+        wait_holding(c)?;
+        let mut found = false;
+        for _ in 0..MARK_ATTEMPTS {
+            c.call("mark", json!({}), T).map_err(|e| e.to_string())?;
+            found = wait_mark(c, raw)?;
+            if found {
+                break;
+            }
+            wait_holding(c)?;
+        }
+        if !found {
+            if !raw {
+                eprintln!(
+                    "search: no pulse at seed {} in {MARK_ATTEMPTS} marks: not tracking",
+                    i + 1
+                );
+            }
+            return Ok(ExitCode::FAILURE);
+        }
+    }
+    c.call(
+        "track",
+        json!({"length_m": args.length_mm.map(|l| l * 1e-3)}),
+        T,
+    )
+    .map_err(|e| e.to_string())?;
+    let summary = loop {
+        let Some(e) = c
+            .next_event(Duration::from_secs(600))
+            .map_err(|e| e.to_string())?
+        else {
+            return Err("no progress from the track for 10 minutes".into());
+        };
+        match e["event"].as_str() {
+            Some("trial") if e["phase"] == "ended" => break e["summary"].clone(),
+            Some("fault") => return Err(describe_event(&e).unwrap_or_default()),
+            Some("detection") if !raw => {
+                if let Some(line) = describe_event(&e) {
+                    outln!("  {line}");
+                }
+            }
+            _ => {}
+        }
+    };
+    if raw {
+        outln!("{summary}");
+    } else {
+        print_summary(&summary);
+    }
+    Ok(if summary["completed"] == Value::Bool(true) {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// Poll status until the arm holds (a move settled), failing on a fault.
+fn wait_holding(c: &mut Client) -> Result<(), String> {
+    let deadline = Instant::now() + Duration::from_secs(300);
+    loop {
+        while let Some(e) = c
+            .next_event(Duration::from_millis(50))
+            .map_err(|e| e.to_string())?
+        {
+            if e["event"] == "fault" {
+                return Err(describe_event(&e).unwrap_or_default());
+            }
+        }
+        let s = c.call("status", json!({}), T).map_err(|e| e.to_string())?;
+        if s["state"] == "holding" {
+            return Ok(());
+        }
+        if Instant::now() > deadline {
+            return Err(format!("still {} after 5 minutes", s["state"]));
+        }
+    }
+}
+
+/// A mark's result: true when the pulse was located.
+fn wait_mark(c: &mut Client, raw: bool) -> Result<bool, String> {
+    loop {
+        let Some(e) = c
+            .next_event(Duration::from_secs(300))
+            .map_err(|e| e.to_string())?
+        else {
+            return Err("the mark gave no result".into());
+        };
+        match (e["event"].as_str(), e["kind"].as_str()) {
+            (Some("detection"), Some("located")) => {
+                if !raw && let Some(l) = describe_event(&e) {
+                    outln!("  {l}");
+                }
+                return Ok(true);
+            }
+            (Some("detection"), Some("missed")) => return Ok(false),
+            (Some("fault"), _) => return Err(describe_event(&e).unwrap_or_default()),
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_region_is_read_in_millimetres_and_bad_input_named() {
+        assert_eq!(
+            parse_region("-20, -20,20,20").expect("region"),
+            [-0.02, -0.02, 0.02, 0.02]
+        );
+        let e = parse_region("1,2,3").expect_err("three");
+        assert!(e.contains("four numbers"), "{e}");
+        let e = parse_region("1,2,x,4").expect_err("x");
+        assert!(e.contains("x1") && e.contains("\"x\""), "{e}");
+        assert!(parse_region("1,2,inf,4").is_err());
+    }
+}
