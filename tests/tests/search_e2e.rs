@@ -212,3 +212,32 @@ fn the_command_line_searches_then_tracks() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("along x"));
     daemon.stop();
 }
+
+/// `pulsetrack demo --search`: the whole 24 cm of the seed's 145 mm arc, tracked from the two
+/// points a search of a 40 mm region around the first placement found, through the daemon.
+#[test]
+fn the_demo_searches_then_tracks_the_whole_artery() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
+        .args([
+            "demo",
+            "--search",
+            "--tracker",
+            "beatslide",
+            "--time-scale",
+            "200",
+            "--json",
+        ])
+        .arg("--out")
+        .arg(dir.path())
+        .output()
+        .expect("run pulsetrack demo --search");
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout).to_string(),
+        String::from_utf8_lossy(&out.stderr).to_string(),
+    );
+    assert!(stderr.contains("search found the artery"), "{stderr}");
+    assert_eq!(out.status.code(), Some(0), "{stdout}{stderr}");
+    let summary: Value = serde_json::from_str(stdout.trim()).expect("the summary");
+    assert_eq!(summary["completed"], true, "{summary}");
+}

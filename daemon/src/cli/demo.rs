@@ -2,7 +2,8 @@
 //! on the embedded simulated bench, its console on a real Unix socket), drives a whole
 //! seeded trial over that socket exactly as a surgeon's console would — move to the scene's
 //! first placement, mark, second placement, mark, track — shows progress, prints the
-//! summary and writes plots.
+//! summary and writes plots. With `--search` it is not shown the artery: it searches a
+//! region around the first placement and seeds the track at the two points it found.
 
 use crate::cli::progress::Progress;
 use crate::cli::stdout::outln;
@@ -45,6 +46,13 @@ pub struct Args {
     /// narration goes to stderr.
     #[arg(long)]
     pub json: bool,
+    /// Find the artery first (docs/search.md) in a square region around the scene's first
+    /// placement, and seed the track at the two points found instead of the placements.
+    #[arg(long)]
+    pub search: bool,
+    /// With --search: the region's side, mm.
+    #[arg(long, default_value_t = 40.0, requires = "search")]
+    pub region_mm: f64,
 }
 
 /// Where the demo's narration goes: stdout, or stderr when stdout carries `--json`'s
@@ -179,7 +187,8 @@ fn run_inner(args: &Args) -> Result<bool, String> {
             "layout:   {layout} (Foxglove: Layouts, Import from file)"
         );
     }
-    let result = drive(say, &daemon, &out, wall0, &artery);
+    let search = args.search.then_some(args.region_mm * 1e-3);
+    let result = drive(say, &daemon, &out, wall0, &artery, search);
     say.tracking(false);
     let stopped = daemon.shutdown();
     // The daemon has exited its lock: the demo's private folder can go.
@@ -230,6 +239,7 @@ fn drive(
     out: &Path,
     wall0: Instant,
     artery: &[(f64, f64)],
+    search_side_m: Option<f64>,
 ) -> Result<bool, String> {
     let mut c = Client::connect(daemon.socket_path(), T).map_err(|e| e.to_string())?;
     say!(
@@ -265,7 +275,14 @@ fn drive(
     );
 
     c.call("enable", json!({}), T).map_err(|e| e.to_string())?;
-    for (i, (x, z)) in [(x1, z1), (x2, z2)].into_iter().enumerate() {
+    let placements = match search_side_m {
+        None => [(x1, z1), (x2, z2)],
+        Some(side) => match search_seeds(say, &mut c, (x1, z1), side)? {
+            Some(seeds) => seeds,
+            None => return Ok(false),
+        },
+    };
+    for (i, (x, z)) in placements.into_iter().enumerate() {
         say!(
             say,
             "placement {}: moving to ({:.1}, {:.1}) mm",
@@ -358,6 +375,67 @@ fn drive(
         .map_err(|e| format!("{}: {e}", summary_path.display()))?;
     say!(say, "summary    {}", summary_path.display());
     Ok(summary["completed"] == Value::Bool(true))
+}
+
+/// Search a square of `side_m` centred on `around` and return the two seed points found
+/// (`None`: not found, said why).
+fn search_seeds(
+    say: &Say,
+    c: &mut Client,
+    around: (f64, f64),
+    side_m: f64,
+) -> Result<Option<[(f64, f64); 2]>, String> {
+    let h = side_m / 2.0;
+    say!(
+        say,
+        "search:   a {:.0} mm square around ({:.1}, {:.1}) mm, not shown where the artery runs",
+        side_m * 1e3,
+        around.0 * 1e3,
+        around.1 * 1e3
+    );
+    c.call(
+        "subscribe",
+        json!({"streams": ["state", "detections", "faults", "trials", "search"]}),
+        T,
+    )
+    .map_err(|e| e.to_string())?;
+    c.call(
+        "search",
+        json!({"x0_m": around.0 - h, "z0_m": around.1 - h, "x1_m": around.0 + h, "z1_m": around.1 + h}),
+        T,
+    )
+    .map_err(|e| e.to_string())?;
+    let end = loop {
+        let Some(e) = c
+            .next_event(Duration::from_secs(600))
+            .map_err(|e| e.to_string())?
+        else {
+            return Err("no word from the search for 10 minutes".into());
+        };
+        if e["event"] == "fault" {
+            return Err(describe_event(&e).unwrap_or_default());
+        }
+        if e["event"] != "search" {
+            continue;
+        }
+        if let Some(line) = describe_event(&e) {
+            say!(say, "  {line}");
+        }
+        if e["kind"] == "finished" {
+            break e;
+        }
+    };
+    if end["outcome"] != "found" {
+        return Ok(None);
+    }
+    let p = |i: usize, k: &str| end["seeds"][i]["point"][k].as_f64();
+    match (p(0, "x_m"), p(0, "z_m"), p(1, "x_m"), p(1, "z_m")) {
+        (Some(a), Some(b), Some(x), Some(z)) => {
+            wait_state(c, "holding")?;
+            Ok(Some([(a, b), (x, z)]))
+        }
+        _ => Err("the search's outcome names no seed points".into()),
+    }
 }
 
 /// Status once the tactile stream is live.
