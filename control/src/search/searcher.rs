@@ -4,6 +4,7 @@ use std::collections::VecDeque;
 
 use crate::frames::SurfacePoint;
 use crate::sensor::ArrayGeometry;
+use crate::signal::detection_bound::chi2_quantile;
 use crate::signal::noise_level::NoiseLevel;
 use crate::signal::placed_pulse::{PlacedPulse, placed_pulse};
 use crate::signal::pulse_search::{PulseSearch, PulseSearchSettings};
@@ -38,6 +39,8 @@ const EDGE_FRACTION: f64 = 0.7;
 /// likelihood ratio of 100, as `beatslide`'s marks require (a weak pulse of unknown sign
 /// was placed on the wrong side of the array, 15 mm off, on a fast, weak heart).
 const SIGN_MARGIN_CHI2: f64 = 9.21;
+/// The kernel fit's false alarm on a still artery (as `beatslide`'s).
+const KERNEL_FIT_FALSE_ALARM: f64 = 1e-3;
 /// Moves shorter than this teach nothing about the lag and are not aimed past, m.
 const LAG_MOVE_MIN_M: f64 = 2e-3;
 /// The largest lag believed, m: more is a sensor that did not arrive, not a lag.
@@ -402,6 +405,15 @@ impl Searcher {
         offset_z_m.abs() > reach_m(&self.geometry) - 2.0 * self.geometry.pitch_m
     }
 
+    /// Do the amplitudes look like one still artery's kernel? Under breathing the tissue
+    /// carries the artery across the still array during a look, and the amplitudes are a
+    /// smear no one kernel fits (as `beatslide`'s fixes, at the same false alarm).
+    fn fits_one_artery(&self, chi2: f64) -> bool {
+        let trusted: f64 = self.geometry.skip_elements.weights().iter().sum();
+        let dof = trusted - 4.0;
+        dof < 1.0 || chi2 <= chi2_quantile(1.0 - KERNEL_FIT_FALSE_ALARM, dof)
+    }
+
     fn strongest_n(&self) -> f64 {
         self.records
             .iter()
@@ -471,6 +483,7 @@ impl Searcher {
                     se_m: fit.offset_se_m,
                     placed: !fit.at_edge
                         && sign_margin_chi2 >= SIGN_MARGIN_CHI2
+                        && self.fits_one_artery(fit.chi2)
                         && fit.amplitude > 0.0
                         && fit.offset_se_m <= MAX_PLACED_SE_M
                         && (0.0..=(ELEMENTS - 1) as f64).contains(&fit.element),
@@ -674,11 +687,14 @@ impl Searcher {
         };
         self.asked.push(target);
         // Aim past the look by the lag measured so far, along the move, so that the sensor
-        // itself comes to rest on it; never outside the region.
+        // itself comes to rest on it; never nearer the region's edge than the margin
+        // (a sensor that lags less than measured, or swings across the move, must still
+        // stay inside).
         let (dx, dz) = (target.x_m - from.x_m, target.z_m - from.z_m);
         let d = dx.hypot(dz);
+        let aim_area = self.region.inset(self.params.edge_margin_m);
         let aim = if d > LAG_MOVE_MIN_M {
-            self.region.clamp(SurfacePoint::new(
+            aim_area.clamp(SurfacePoint::new(
                 target.x_m + self.lag_m * dx / d,
                 target.z_m + self.lag_m * dz / d,
             ))
