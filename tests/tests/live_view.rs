@@ -506,3 +506,75 @@ fn a_non_loopback_address_without_allow_remote_is_refused() {
     assert!(err.contains("allow_remote"), "{err}");
     assert!(!dir.path().join("console.sock").exists());
 }
+
+/// A search's map reaches the live view's 3D panel: after each look an `/artery` update with
+/// a `search_map` entity (the region's outline, the looks, and tiles where the artery may
+/// run), and at the end the tiles lie along the artery the search found.
+#[test]
+fn a_search_shows_its_map_live() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let (daemon, mut c) = start(dir.path(), &Setup::default());
+    let url = live_url(&mut c);
+    let mut fox = FoxgloveClient::connect(&url, T).expect("connect");
+    fox.wait_for_channels(&["/artery"], T).expect("advertised");
+    fox.subscribe(&["/artery"]).expect("subscribe");
+    fox.next(T).expect("read").expect("an /artery message");
+    let ([_, (x2, z2)], _) = e2e::scene(&mut c);
+    call(
+        &mut c,
+        "subscribe",
+        json!({"streams": ["search", "faults"]}),
+    );
+    call(&mut c, "enable", json!({}));
+    let h = 0.015;
+    call(
+        &mut c,
+        "search",
+        json!({"x0_m": x2 - h, "z0_m": z2 - h, "x1_m": x2 + h, "z1_m": z2 + h}),
+    );
+    let end = e2e::wait_event(&mut c, "the search's end", |e| {
+        e["event"] == "search" && e["kind"] == "finished"
+    });
+    assert_eq!(end["outcome"], "found", "{end}");
+    let msgs = fox.collect_for(Duration::from_secs(2)).expect("receive");
+    drop(fox);
+    daemon.stop();
+    let maps: Vec<Value> = on(&msgs, "/artery")
+        .flat_map(|u| u["entities"].as_array().cloned().unwrap_or_default())
+        .filter(|e| e["id"] == "search_map")
+        .collect();
+    assert_eq!(
+        maps.len() as u64,
+        end["looks"].as_u64().expect("looks"),
+        "one map per look"
+    );
+    let last = maps.last().expect("a map");
+    assert_eq!(
+        last["spheres"].as_array().map(Vec::len),
+        end["looks"].as_u64().map(|n| n as usize)
+    );
+    let tiles = last["cubes"].as_array().expect("tiles");
+    assert!(!tiles.is_empty());
+    // The most opaque tiles lie on the line through the two seeds.
+    let seed = |i: usize, k: &str| end["seeds"][i]["point"][k].as_f64().expect("seed");
+    let (ax, az, bx, bz) = (
+        seed(0, "x_m"),
+        seed(0, "z_m"),
+        seed(1, "x_m"),
+        seed(1, "z_m"),
+    );
+    for t in tiles
+        .iter()
+        .filter(|t| t["color"]["a"].as_f64().unwrap_or(0.0) > 0.4)
+    {
+        let (x, z) = (
+            t["pose"]["position"]["x"].as_f64().expect("x"),
+            t["pose"]["position"]["z"].as_f64().expect("z"),
+        );
+        let on_line = az + (bz - az) * (x - ax) / (bx - ax);
+        assert!(
+            (z - on_line).abs() < 0.003,
+            "tile ({x}, {z}) off the found line"
+        );
+    }
+}

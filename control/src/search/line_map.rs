@@ -243,6 +243,34 @@ impl LineMap {
             .sum()
     }
 
+    /// The map as a picture: over a grid of `nx` by `nz` cells covering `region`, the
+    /// probability that the artery crosses each cell's column within that cell (each
+    /// column sums to the probability that the artery crosses the column inside the
+    /// region). Row-major by `x` column, `z` within it.
+    pub fn occupancy(&self, region: &Region, nx: usize, nz: usize) -> Vec<f64> {
+        let mut out = vec![0.0; nx * nz];
+        if nx == 0 || nz == 0 {
+            return out;
+        }
+        let mut p = Vec::with_capacity(self.log_p.len());
+        self.probabilities(&mut p);
+        let (w, h) = (region.width_m() / nx as f64, region.height_m() / nz as f64);
+        let n_off = self.offsets.len();
+        for c in 0..nx {
+            let x = region.x0_m + (c as f64 + 0.5) * w;
+            for (j, &tan) in self.tans.iter().enumerate() {
+                let base = self.centre.z_m + tan * (x - self.centre.x_m);
+                for (i, pk) in p[j * n_off..(j + 1) * n_off].iter().enumerate() {
+                    let k = ((base + self.offsets[i] - region.z0_m) / h).floor();
+                    if k >= 0.0 && (k as usize) < nz {
+                        out[c * nz + k as usize] += pk;
+                    }
+                }
+            }
+        }
+        out
+    }
+
     /// The SD of where the line crosses `x` (given an artery), m.
     pub fn crossing_sd_m(&self, x: f64) -> f64 {
         let mut p = Vec::with_capacity(self.log_p.len());

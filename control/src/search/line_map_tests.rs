@@ -156,3 +156,36 @@ fn a_single_heading_and_a_flat_prior_do_not_break_the_grid() {
     assert!((sum.offset_m - -0.016).abs() < 0.5e-3, "{sum:?}");
     assert!(sum.p_present.is_finite() && sum.offset_sd_m.is_finite());
 }
+
+#[test]
+fn the_picture_puts_the_probability_on_the_felt_line() {
+    let mut map = LineMap::new(&region(), settings());
+    let r = region();
+    // One felt point and one at 20 mm along x: a line at heading 0 through z = -0.015.
+    for x in [0.0, 0.02] {
+        map.observe(
+            SurfacePoint::new(x, -0.02),
+            LookReading::Felt {
+                offset_z_m: 0.005,
+                se_m: 0.1e-3,
+            },
+        );
+    }
+    let (nx, nz) = (8, 20);
+    let occ = map.occupancy(&r, nx, nz);
+    for c in 0..nx {
+        let col = &occ[c * nz..(c + 1) * nz];
+        let total: f64 = col.iter().sum();
+        assert!(
+            (total - map.summary().p_present).abs() < 0.02,
+            "column {c}: {total}"
+        );
+        // z = -0.015 lies in row (−0.015 − (−0.04)) / 0.002 = 12.5 → row 12.
+        let (best, _) = col
+            .iter()
+            .enumerate()
+            .fold((0, 0.0), |b, (k, &v)| if v > b.1 { (k, v) } else { b });
+        assert_eq!(best, 12, "column {c}: {col:?}");
+    }
+    assert!(map.occupancy(&r, 0, 5).is_empty());
+}

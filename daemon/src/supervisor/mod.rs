@@ -11,6 +11,7 @@ mod live_view;
 mod report;
 mod requests;
 mod search;
+mod search_scene;
 pub mod state;
 mod tracking;
 pub mod trial;
@@ -210,8 +211,10 @@ pub struct Supervisor {
     /// The believed sensor positions while no trial runs: the approach to the first
     /// placement, handed to the next trial's tracker at its first mark.
     approach: ApproachTrail,
-    /// The autonomous search under way, if any (state `searching`).
+    /// The autonomous search under way, if any (state `searching`), and its looks so far
+    /// (where, and whether a pulse was placed there) for the live map.
     searcher: Option<control::search::Searcher>,
+    search_looks: Vec<(SurfacePoint, bool)>,
     pending: Vec<Pending>,
     timing: Option<PeriodSummary>,
     overruns_reported: u64,
@@ -285,6 +288,7 @@ impl Supervisor {
             tracker_target: None,
             approach: ApproachTrail::default(),
             searcher: None,
+            search_looks: Vec::new(),
             pending: Vec::new(),
             timing: None,
             overruns_reported: 0,

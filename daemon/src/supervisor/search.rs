@@ -41,6 +41,7 @@ impl Supervisor {
             Err(e) => return self.reply_err(id, to, ErrorCode::Refused, &e.to_string()),
         };
         self.searcher = Some(searcher);
+        self.search_looks.clear();
         self.set_state(OpState::Searching);
         let t = self.now_s();
         let v = json!({"event": "search", "kind": "started", "t_s": t, "method": method.as_str(),
@@ -138,6 +139,12 @@ impl Supervisor {
         }
         self.record(Topic::Events, t_s, &v);
         self.publish(Stream::Search, 0, &v, true);
+        if let SearchEvent::Look(r) = &e {
+            self.search_looks.push((r.at, r.felt.is_some()));
+            let looks = std::mem::take(&mut self.search_looks);
+            self.live_search_map(t_s, &looks);
+            self.search_looks = looks;
+        }
         if let SearchEvent::Finished(o) = e {
             self.log_line(t_s, level::INFO, describe(&o));
             self.searcher = None;
