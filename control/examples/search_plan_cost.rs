@@ -21,6 +21,7 @@ fn main() -> Result<(), String> {
     let region = Region::square(SurfacePoint::new(0.0, 0.0), 0.04).map_err(|e| e.to_string())?;
     let settings = MapSettings {
         max_heading_rad: p.max_heading_rad,
+        heading_centre_rad: 0.0,
         offset_step_m: p.offset_step_m,
         heading_step_rad: p.heading_step_rad,
         reach_m: 0.01,

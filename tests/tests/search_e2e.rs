@@ -60,6 +60,10 @@ fn a_region_around_the_artery_is_searched_and_found_inside_it() {
             json!({"x0_m": 0.0, "z0_m": 0.0, "x1_m": 0.02, "z1_m": 0.02, "extra": 1}),
             "extra",
         ),
+        (
+            json!({"x0_m": 0.0, "z0_m": 0.0, "x1_m": 0.02, "z1_m": 0.02, "heading_rad": 2.0}),
+            "heading_rad",
+        ),
     ] {
         let r = c.request("search", args, T).expect("reply");
         assert_eq!(r["ok"], false, "{r}");

@@ -5,8 +5,9 @@
 //! bends a 20 mm chord by 2 mm, and the seed's arcs by under 0.5 mm. A line is
 //! `z(x) = z_c + offset + tan(heading) (x − x_c)` about the region's centre `(x_c, z_c)`;
 //! the prior is uniform over offsets that put the line through the region's middle column
-//! and headings within the configured cone about `+x` (the array lies along `z` and can
-//! follow only an artery that crosses it). A grid, not a particle set or a Gaussian: the
+//! and headings within the configured cone about the expected course (`+x` unless the
+//! surgeon names another), never steeper than 80 degrees from `x` (the array lies along
+//! `z` and can follow only an artery that crosses it). A grid, not a particle set or a Gaussian: the
 //! posterior after one look is a band (every line through the felt point), after a miss a
 //! hole, and a grid holds both exactly at a few tens of thousands of cells.
 //!
@@ -23,6 +24,10 @@
 use crate::frames::SurfacePoint;
 
 use super::region::Region;
+
+/// No line is steeper than this from `+x`, rad: the array lies along `z` and feels an
+/// artery along it only as a flat pattern no kernel places.
+pub const MAX_HEADING_RAD: f64 = 80.0 * std::f64::consts::PI / 180.0;
 
 /// How far inside the array's reach a pulse that cannot be placed may still lie, m: two
 /// pitches of the seed's array (an artery over the outer two elements is placed at the edge).
@@ -45,8 +50,10 @@ pub enum LookReading {
 /// The model's constants.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MapSettings {
-    /// Largest heading of the artery from `+x`, rad.
+    /// Largest heading of the artery from the expected course, rad.
     pub max_heading_rad: f64,
+    /// The expected course's heading from `+x`, rad (0: along `x`).
+    pub heading_centre_rad: f64,
     /// Grid steps.
     pub offset_step_m: f64,
     pub heading_step_rad: f64,
@@ -96,17 +103,18 @@ impl LineMap {
         let offsets: Vec<f64> = (0..n_off)
             .map(|i| -half + 2.0 * half * i as f64 / (n_off - 1).max(1) as f64)
             .collect();
-        let n_head = (2.0 * settings.max_heading_rad / settings.heading_step_rad)
-            .round()
-            .max(0.0) as usize
-            + 1;
+        // The cone about the expected course, within the array's reach (80 degrees of x).
+        let limit = MAX_HEADING_RAD;
+        let lo = (settings.heading_centre_rad - settings.max_heading_rad).max(-limit);
+        let hi = (settings.heading_centre_rad + settings.max_heading_rad).min(limit);
+        let (lo, hi) = if lo <= hi { (lo, hi) } else { (hi, hi) };
+        let n_head = ((hi - lo) / settings.heading_step_rad).round().max(0.0) as usize + 1;
         let headings: Vec<f64> = (0..n_head)
             .map(|j| {
                 if n_head == 1 {
-                    0.0
+                    0.5 * (lo + hi)
                 } else {
-                    -settings.max_heading_rad
-                        + 2.0 * settings.max_heading_rad * j as f64 / (n_head - 1) as f64
+                    lo + (hi - lo) * j as f64 / (n_head - 1) as f64
                 }
             })
             .collect();

@@ -3,6 +3,7 @@ use super::*;
 fn settings() -> MapSettings {
     MapSettings {
         max_heading_rad: 60f64.to_radians(),
+        heading_centre_rad: 0.0,
         offset_step_m: 0.25e-3,
         heading_step_rad: 1f64.to_radians(),
         reach_m: 0.01,

@@ -40,7 +40,7 @@ pub struct SearchParams {
     pub prior_absent: f64,
     /// Found: an artery is this probable, its heading lies within `heading_tolerance_rad`
     /// of the best line's with probability `heading_confidence`, and two felt points at
-    /// least `seed_separation_m` apart along `x` agree with it.
+    /// least `seed_separation_m` apart agree with it.
     pub found_probability: f64,
     pub heading_tolerance_rad: f64,
     pub heading_confidence: f64,

@@ -163,6 +163,7 @@ impl Searcher {
         let reach = reach_m(&geometry);
         let map_settings = MapSettings {
             max_heading_rad: params.max_heading_rad,
+            heading_centre_rad: 0.0,
             offset_step_m: params.offset_step_m,
             heading_step_rad: params.heading_step_rad,
             reach_m: reach,
@@ -210,6 +211,22 @@ impl Searcher {
             region,
             method,
         })
+    }
+
+    /// Expect the artery to run at `heading_rad` from `+x` (the surgeon's guess of its
+    /// course): the prior cone of `max_heading_rad` is centred there. Only before the
+    /// first frame.
+    pub fn expect_heading(mut self, heading_rad: f64) -> Result<Self, BuildError> {
+        if !(heading_rad.is_finite() && heading_rad.abs() <= super::line_map::MAX_HEADING_RAD) {
+            return Err(BuildError::Params(ParamsError {
+                field: "heading_rad",
+                value: heading_rad,
+                why: "must lie within 80 degrees of x (the array follows only an artery that crosses it)",
+            }));
+        }
+        self.map_settings.heading_centre_rad = heading_rad;
+        self.map = LineMap::new(&self.region, self.map_settings);
+        Ok(self)
     }
 
     pub fn region(&self) -> &Region {
@@ -543,7 +560,7 @@ impl Searcher {
     }
 
     /// Two felt points, not at the array's edge, that agree with the best line and lie at
-    /// least `seed_separation_m` apart along `x`: the pair farthest apart, along `+x`.
+    /// least `seed_separation_m` apart: the pair farthest apart, ordered along `+x`.
     /// Placed pulses read as the artery's (not faint, not a flank) and felt on the array's
     /// inner elements: the only points a seed may be.
     fn inner_felt(&self) -> Vec<Pulse> {
@@ -572,7 +589,7 @@ impl Searcher {
         let mut best: Option<(f64, [LocatedPoint; 2])> = None;
         for (i, a) in agree.iter().enumerate() {
             for b in &agree[i + 1..] {
-                let dx = (a.point.point.x_m - b.point.point.x_m).abs();
+                let dx = a.point.point.distance_to(&b.point.point);
                 if dx >= self.params.seed_separation_m && best.is_none_or(|(d, _)| dx > d) {
                     let pair = if a.point.point.x_m <= b.point.point.x_m {
                         [a.point, b.point]
@@ -603,8 +620,8 @@ impl Searcher {
 
     /// Once the map knows the line (an artery to the found probability, its heading to the
     /// configured confidence) but no pair of seeds agrees with it: a look centred on the
-    /// line, nearest to `from`, at least the seed separation along `x` from any seed felt
-    /// there already (so that the next felt point can pair with it). `None` while the
+    /// line, nearest to `from`, at least the seed separation from any seed felt there
+    /// already (so that the next felt point can pair with it). `None` while the
     /// line is not known or no such place lies in the region.
     fn seeding_look(&self, from: SurfacePoint) -> Option<SurfacePoint> {
         let summary = self.map.summary();
@@ -617,11 +634,7 @@ impl Searcher {
         {
             return None;
         }
-        let inner: Vec<f64> = self
-            .inner_felt()
-            .iter()
-            .map(|p| p.point.point.x_m)
-            .collect();
+        let inner: Vec<SurfacePoint> = self.inner_felt().iter().map(|p| p.point.point).collect();
         let c = self.region.centre();
         let area = self.region.inset(self.params.edge_margin_m);
         let looked: Vec<SurfacePoint> = self
@@ -630,18 +643,19 @@ impl Searcher {
             .map(|r| r.at)
             .chain(self.asked.iter().copied())
             .collect();
-        let steps = (area.width_m() / self.params.candidate_step_m)
-            .round()
-            .max(1.0) as usize;
+        // Places along the line, every candidate step, across the whole region.
+        let (sin, cos) = heading.sin_cos();
+        let half = area.width_m().hypot(area.height_m());
+        let steps = (2.0 * half / self.params.candidate_step_m).round().max(1.0) as usize;
+        let through = SurfacePoint::new(c.x_m, z_c);
         (0..=steps)
-            .map(|i| area.x0_m + area.width_m() * i as f64 / steps as f64)
-            .filter(|x| {
-                inner.is_empty()
-                    || inner
-                        .iter()
-                        .all(|s| (x - s).abs() >= self.params.seed_separation_m)
+            .map(|i| -half + 2.0 * half * i as f64 / steps as f64)
+            .map(|u| SurfacePoint::new(through.x_m + u * cos, through.z_m + u * sin))
+            .filter(|p| {
+                inner
+                    .iter()
+                    .all(|s| s.distance_to(p) >= self.params.seed_separation_m)
             })
-            .map(|x| SurfacePoint::new(x, z_c + heading.tan() * (x - c.x_m)))
             .filter(|p| area.contains(*p))
             .filter(|p| !looked.iter().any(|l| l.distance_to(p) < 1e-3))
             .filter(|p| !self.unreachable.iter().any(|u| u.distance_to(p) < 1e-3))

@@ -160,11 +160,53 @@ fn finds_an_oblique_artery_and_seeds_on_it() {
             let e = lateral_error(&artery, seed.point);
             assert!(e.abs() < 0.5e-3, "{method:?}: seed {seed:?} {e} m off");
         }
-        assert!(seeds[1].point.x_m - seeds[0].point.x_m >= 0.01);
+        assert!(
+            seeds[1].point.distance_to(&seeds[0].point) >= 0.01
+                && seeds[1].point.x_m >= seeds[0].point.x_m
+        );
         assert!((heading_rad - artery.heading).abs() < 3f64.to_radians());
         assert!(events.iter().any(|e| matches!(e, SearchEvent::Look(_))));
         assert!(bench.asked.iter().all(|p| region().contains(*p)));
     }
+}
+
+#[test]
+fn a_named_course_direction_finds_a_steep_artery_the_default_cone_leaves_out() {
+    let artery = Artery {
+        x0: 0.0,
+        z0: 0.004,
+        heading: 70f64.to_radians(),
+        amplitude_n: 0.08,
+    };
+    let mut bench = Bench::new(Some(artery), region().centre(), 9);
+    let mut s = searcher(SearchMethod::Search)
+        .expect_heading(65f64.to_radians())
+        .expect("heading");
+    let (outcome, _) = bench.run(&mut s, 200.0);
+    let Some(SearchOutcome::Found {
+        seeds, heading_rad, ..
+    }) = outcome
+    else {
+        panic!("{outcome:?}");
+    };
+    assert!(
+        (heading_rad - artery.heading).abs() < 5f64.to_radians(),
+        "{heading_rad}"
+    );
+    for seed in seeds {
+        let e = lateral_error(&artery, seed.point);
+        assert!(e.abs() < 0.5e-3, "seed {seed:?} {e} m off");
+    }
+    assert!(
+        searcher(SearchMethod::Search)
+            .expect_heading(85f64.to_radians())
+            .is_err()
+    );
+    assert!(
+        searcher(SearchMethod::Search)
+            .expect_heading(f64::NAN)
+            .is_err()
+    );
 }
 
 #[test]

@@ -1,5 +1,5 @@
-//! `pulsetrack search --region X0,Z0,X1,Z1 [--method search|raster] [--then-track
-//! [--length-mm L]]`: asks the daemon to find the artery in a region of the tissue surface
+//! `pulsetrack search --region X0,Z0,X1,Z1 [--method search|raster] [--heading-deg D]
+//! [--then-track [--length-mm L]]`: asks the daemon to find the artery in a region of the tissue surface
 //! (millimetres here, metres on the wire; docs/search.md), prints each look and the
 //! outcome, and with `--then-track` seeds a track at the two points it found exactly as a
 //! surgeon would (move, mark, move, mark, track) and follows it to its end.
@@ -28,6 +28,10 @@ pub struct Args {
     /// How to explore: `search` (the most information per heartbeat) or `raster`.
     #[arg(long, default_value = "search", value_parser = ["search", "raster"])]
     pub method: String,
+    /// The course you expect the artery to take, degrees from +x (default: along x); the
+    /// search looks for headings within 60 degrees of it.
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    pub heading_deg: Option<f64>,
     /// Once found, mark the two points and track the artery from them.
     #[arg(long)]
     pub then_track: bool,
@@ -69,6 +73,16 @@ pub fn run(args: &Args) -> ExitCode {
         Ok(r) => r,
         Err(e) => return failure::report(NAME, json_out, failure::Failure::Usage, &e),
     };
+    if let Some(h) = args.heading_deg
+        && !(h.is_finite() && h.abs() <= 80.0)
+    {
+        return failure::report(
+            NAME,
+            json_out,
+            failure::Failure::Usage,
+            &format!("--heading-deg {h}: must lie within 80 degrees of x"),
+        );
+    }
     if let Some(l) = args.length_mm
         && !(l.is_finite() && l > 0.0)
     {
@@ -100,7 +114,8 @@ fn run_on(c: &mut Client, args: &Args, r: [f64; 4]) -> Result<ExitCode, String> 
     let reply = c
         .request(
             NAME,
-            json!({"x0_m": r[0], "z0_m": r[1], "x1_m": r[2], "z1_m": r[3], "method": args.method}),
+            json!({"x0_m": r[0], "z0_m": r[1], "x1_m": r[2], "z1_m": r[3], "method": args.method,
+                "heading_rad": args.heading_deg.map(f64::to_radians)}),
             T,
         )
         .map_err(|e| e.to_string())?;

@@ -79,6 +79,8 @@ pub enum Verb {
     Search {
         region: control::search::Region,
         method: control::search::SearchMethod,
+        /// The surgeon's expected course, rad from `+x`.
+        heading_rad: Option<f64>,
     },
     /// Test hooks, refused unless `console.debug_hooks` is set.
     Debug(DebugAction),
@@ -212,7 +214,12 @@ impl Verb {
                     put("load_per_element_n", (*load_per_element_n).into());
                 }
             }
-            Verb::Search { region, method } => {
+            Verb::Search {
+                region,
+                method,
+                heading_rad,
+            } => {
+                put("heading_rad", (*heading_rad).into());
                 put("x0_m", region.x0_m.into());
                 put("z0_m", region.z0_m.into());
                 put("x1_m", region.x1_m.into());

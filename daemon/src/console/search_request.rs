@@ -1,6 +1,7 @@
 //! The `search` verb's arguments: the region's corners in metres (`x0_m`, `z0_m`, `x1_m`,
-//! `z1_m`, tissue frame, in any order) and an optional `method` (`search`, the default, or
-//! `raster`), checked for type and range.
+//! `z1_m`, tissue frame, in any order), an optional `method` (`search`, the default, or
+//! `raster`) and an optional `heading_rad` (the expected course, from `+x`), checked for type
+//! and range.
 
 use serde_json::Value;
 
@@ -45,5 +46,22 @@ pub(super) fn parse(args: &mut Args, limits: &ParseLimits) -> Result<Verb, Reque
             ));
         }
     };
-    Ok(Verb::Search { region, method })
+    let heading_rad = args.optional_number("heading_rad")?;
+    if let Some(h) = heading_rad
+        && h.abs() > control::search::line_map::MAX_HEADING_RAD
+    {
+        return Err(err(
+            Some(args.id),
+            ErrorCode::OutOfRange,
+            format!(
+                "`heading_rad` = {h} must lie within ±{:.4} rad (80 degrees) of x: the array follows only an artery that crosses it",
+                control::search::line_map::MAX_HEADING_RAD
+            ),
+        ));
+    }
+    Ok(Verb::Search {
+        region,
+        method,
+        heading_rad,
+    })
 }

@@ -160,7 +160,11 @@ impl Supervisor {
                 self.place_array(id, to, load_per_element_n)
             }
             Verb::Calibrate(step) => self.calibrate(id, to, step),
-            Verb::Search { region, method } => self.search_start(id, to, region, method),
+            Verb::Search {
+                region,
+                method,
+                heading_rad,
+            } => self.search_start(id, to, region, method, heading_rad),
         }
     }
 

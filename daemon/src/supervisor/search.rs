@@ -17,6 +17,7 @@ impl Supervisor {
         to: Responder,
         region: control::search::Region,
         method: control::search::SearchMethod,
+        heading_rad: Option<f64>,
     ) {
         for corner in [
             SurfacePoint::new(region.x0_m, region.z0_m),
@@ -35,8 +36,12 @@ impl Supervisor {
                 );
             }
         }
-        let searcher = match Searcher::new(self.s.search, self.calibration.sensor(), region, method)
-        {
+        let built = Searcher::new(self.s.search, self.calibration.sensor(), region, method)
+            .and_then(|s| match heading_rad {
+                Some(h) => s.expect_heading(h),
+                None => Ok(s),
+            });
+        let searcher = match built {
             Ok(s) => s,
             Err(e) => return self.reply_err(id, to, ErrorCode::Refused, &e.to_string()),
         };
@@ -45,7 +50,7 @@ impl Supervisor {
         self.set_state(OpState::Searching);
         let t = self.now_s();
         let v = json!({"event": "search", "kind": "started", "t_s": t, "method": method.as_str(),
-            "region": region});
+            "region": region, "heading_rad": heading_rad});
         self.record(Topic::Events, t, &v);
         self.publish(Stream::Search, 0, &v, true);
         self.reply_ok(

@@ -285,6 +285,7 @@ mod tests {
             )
             .expect("region"),
             method: control::search::SearchMethod::Search,
+            heading_rad: None,
         };
         assert_eq!(accepted(&search, 0), vec![Holding, Done]);
         // Not over an open trial, nor during a calibration recording.
