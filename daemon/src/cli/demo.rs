@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 use serde_json::{Value, json};
 
 use crate::cli::console::{describe_event, print_summary};
+use crate::cli::console_flow::{follow_search, wait_mark, wait_state};
 use crate::console::client::Client;
 use crate::live::layout::LAYOUT;
 use crate::live::server::LiveError;
@@ -307,7 +308,7 @@ fn drive(
                 i + 1
             );
             c.call("mark", json!({}), T).map_err(|e| e.to_string())?;
-            found = wait_mark(say, &mut c)?;
+            found = wait_mark(&mut c, &mut |l| say!(say, "  {l}"))?;
             if found {
                 break;
             }
@@ -405,26 +406,7 @@ fn search_seeds(
         T,
     )
     .map_err(|e| e.to_string())?;
-    let end = loop {
-        let Some(e) = c
-            .next_event(Duration::from_secs(600))
-            .map_err(|e| e.to_string())?
-        else {
-            return Err("no word from the search for 10 minutes".into());
-        };
-        if e["event"] == "fault" {
-            return Err(describe_event(&e).unwrap_or_default());
-        }
-        if e["event"] != "search" {
-            continue;
-        }
-        if let Some(line) = describe_event(&e) {
-            say!(say, "  {line}");
-        }
-        if e["kind"] == "finished" {
-            break e;
-        }
-    };
+    let end = follow_search(c, &mut |_, line| say!(say, "  {line}"))?;
     if end["outcome"] != "found" {
         return Ok(None);
     }
@@ -450,55 +432,6 @@ fn wait_live(c: &mut Client) -> Result<Value, String> {
             return Err("no tactile frames from the simulator".into());
         }
         std::thread::sleep(Duration::from_millis(10));
-    }
-}
-
-/// Wait until the daemon reports `want` (polling status: state events queued before the
-/// last request would be stale), failing on a fault.
-fn wait_state(c: &mut Client, want: &str) -> Result<(), String> {
-    let deadline = Instant::now() + Duration::from_secs(300);
-    loop {
-        while let Some(e) = c
-            .next_event(Duration::from_millis(50))
-            .map_err(|e| e.to_string())?
-        {
-            if e["event"] == "fault" {
-                return Err(describe_event(&e).unwrap_or_default());
-            }
-        }
-        let s = c.call("status", json!({}), T).map_err(|e| e.to_string())?;
-        if s["state"] == want {
-            return Ok(());
-        }
-        if Instant::now() > deadline {
-            return Err(format!("still {} after 5 minutes", s["state"]));
-        }
-    }
-}
-
-/// Wait for a mark's result: true if the pulse was located.
-fn wait_mark(say: &Say, c: &mut Client) -> Result<bool, String> {
-    loop {
-        let Some(e) = c
-            .next_event(Duration::from_secs(300))
-            .map_err(|e| e.to_string())?
-        else {
-            return Err("the mark gave no result".into());
-        };
-        match (e["event"].as_str(), e["kind"].as_str()) {
-            (Some("detection"), Some("located")) => {
-                say!(say, "  {}", describe_event(&e).unwrap_or_default());
-                return Ok(true);
-            }
-            (Some("detection"), Some("missed")) => return Ok(false),
-            (Some("detection"), _) => {
-                if let Some(l) = describe_event(&e) {
-                    say!(say, "  {l}");
-                }
-            }
-            (Some("fault"), _) => return Err(describe_event(&e).unwrap_or_default()),
-            _ => {}
-        }
     }
 }
 

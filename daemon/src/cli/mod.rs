@@ -7,6 +7,7 @@ mod calibrate;
 mod check_config;
 mod completions;
 pub mod console;
+mod console_flow;
 pub mod daemon_config;
 mod demo;
 mod failure;

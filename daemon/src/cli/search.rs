@@ -9,11 +9,12 @@
 //! unreachable.
 
 use std::process::ExitCode;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use serde_json::{Value, json};
 
 use crate::cli::console::{Conn, describe_event, print_summary};
+use crate::cli::console_flow::{follow_search, wait_mark, wait_state};
 use crate::cli::failure;
 use crate::cli::stdout::outln;
 use crate::console::client::Client;
@@ -131,28 +132,13 @@ fn run_on(c: &mut Client, args: &Args, r: [f64; 4]) -> Result<ExitCode, String> 
         }
         return Ok(ExitCode::FAILURE);
     }
-    let outcome = loop {
-        let Some(e) = c
-            .next_event(Duration::from_secs(600))
-            .map_err(|e| e.to_string())?
-        else {
-            return Err("no word from the search for 10 minutes".into());
-        };
-        if e["event"] == "fault" {
-            return Err(describe_event(&e).unwrap_or_else(|| "the daemon faulted".into()));
-        }
-        if e["event"] != "search" {
-            continue;
-        }
+    let outcome = follow_search(c, &mut |e, line| {
         if raw {
             outln!("{e}");
-        } else if let Some(line) = describe_event(&e) {
+        } else if !line.is_empty() {
             outln!("{line}");
         }
-        if e["kind"] == "finished" {
-            break e;
-        }
-    };
+    })?;
     if outcome["outcome"] != "found" {
         return Ok(ExitCode::FAILURE);
     }
@@ -177,15 +163,19 @@ fn run_on(c: &mut Client, args: &Args, r: [f64; 4]) -> Result<ExitCode, String> 
         }
         c.call("move", json!({"x_m": x, "z_m": z}), T)
             .map_err(|e| e.to_string())?;
-        wait_holding(c)?;
+        wait_state(c, "holding")?;
         let mut found = false;
         for _ in 0..MARK_ATTEMPTS {
             c.call("mark", json!({}), T).map_err(|e| e.to_string())?;
-            found = wait_mark(c, raw)?;
+            found = wait_mark(c, &mut |l| {
+                if !raw {
+                    outln!("  {l}");
+                }
+            })?;
             if found {
                 break;
             }
-            wait_holding(c)?;
+            wait_state(c, "holding")?;
         }
         if !found {
             if !raw {
@@ -231,51 +221,6 @@ fn run_on(c: &mut Client, args: &Args, r: [f64; 4]) -> Result<ExitCode, String> 
     } else {
         ExitCode::FAILURE
     })
-}
-
-/// Poll status until the arm holds (a move settled), failing on a fault.
-fn wait_holding(c: &mut Client) -> Result<(), String> {
-    let deadline = Instant::now() + Duration::from_secs(300);
-    loop {
-        while let Some(e) = c
-            .next_event(Duration::from_millis(50))
-            .map_err(|e| e.to_string())?
-        {
-            if e["event"] == "fault" {
-                return Err(describe_event(&e).unwrap_or_default());
-            }
-        }
-        let s = c.call("status", json!({}), T).map_err(|e| e.to_string())?;
-        if s["state"] == "holding" {
-            return Ok(());
-        }
-        if Instant::now() > deadline {
-            return Err(format!("still {} after 5 minutes", s["state"]));
-        }
-    }
-}
-
-/// A mark's result: true when the pulse was located.
-fn wait_mark(c: &mut Client, raw: bool) -> Result<bool, String> {
-    loop {
-        let Some(e) = c
-            .next_event(Duration::from_secs(300))
-            .map_err(|e| e.to_string())?
-        else {
-            return Err("the mark gave no result".into());
-        };
-        match (e["event"].as_str(), e["kind"].as_str()) {
-            (Some("detection"), Some("located")) => {
-                if !raw && let Some(l) = describe_event(&e) {
-                    outln!("  {l}");
-                }
-                return Ok(true);
-            }
-            (Some("detection"), Some("missed")) => return Ok(false),
-            (Some("fault"), _) => return Err(describe_event(&e).unwrap_or_default()),
-            _ => {}
-        }
-    }
 }
 
 #[cfg(test)]

@@ -106,22 +106,7 @@ impl Supervisor {
             self.tracker_target = None;
             return;
         }
-        let seq = self.seq();
-        self.motion_seq = seq;
-        let speed = if speed_m_s.is_finite() && speed_m_s > 0.0 {
-            speed_m_s.min(self.s.max_speed_m_s)
-        } else {
-            self.s.move_speed_m_s
-        };
-        self.send(
-            ControlCommand::MoveTo {
-                seq,
-                target,
-                speed_m_s: speed,
-            },
-            Purpose::TrackerMove,
-            None,
-        );
+        self.send_autonomous_move(target, speed_m_s);
     }
 
     fn search_event(&mut self, e: SearchEvent) {

@@ -152,6 +152,12 @@ impl Supervisor {
             self.tracker_target_unreachable();
             return;
         }
+        self.send_autonomous_move(target, speed_m_s);
+    }
+
+    /// A tracker's or a search's move to `target` (inside the workspace) at its asked speed,
+    /// bounded by the motion limits; it becomes the motion frames are judged against.
+    pub(super) fn send_autonomous_move(&mut self, target: SurfacePoint, speed_m_s: f64) {
         let seq = self.seq();
         self.motion_seq = seq;
         let speed = if speed_m_s.is_finite() && speed_m_s > 0.0 {
