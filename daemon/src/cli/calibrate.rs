@@ -112,15 +112,7 @@ fn run_on(c: &mut Client, req: &Value, raw: bool) -> Result<ExitCode, String> {
         .request(NAME, req.clone(), TIMEOUT)
         .map_err(|e| e.to_string())?;
     if reply["ok"] != Value::Bool(true) {
-        if raw {
-            outln!("{reply}");
-        } else {
-            eprintln!(
-                "calibrate: refused: {} [{}]",
-                reply["reason"].as_str().unwrap_or("?"),
-                reply["error"].as_str().unwrap_or("?")
-            );
-        }
+        crate::cli::console_flow::report_refusal(NAME, &reply, raw);
         return Ok(ExitCode::FAILURE);
     }
     let step = reply["step"].as_str().unwrap_or("?").to_string();

@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 use serde_json::{Value, json};
 
 use crate::cli::console::describe_event;
+use crate::cli::stdout::outln;
 use crate::console::client::Client;
 
 const T: Duration = Duration::from_secs(30);
@@ -79,5 +80,41 @@ pub fn follow_search(c: &mut Client, say: &mut dyn FnMut(&Value, String)) -> Res
         if e["kind"] == "finished" {
             return Ok(e);
         }
+    }
+}
+
+/// Follow a track to its trial's end, handing every detection event to `on_detection`:
+/// `Ok(summary)` at the end, `Err(event)` when a fault ended it.
+pub fn follow_track(
+    c: &mut Client,
+    on_detection: &mut dyn FnMut(&Value),
+) -> Result<Result<Value, Value>, String> {
+    loop {
+        let Some(e) = c
+            .next_event(Duration::from_secs(600))
+            .map_err(|e| e.to_string())?
+        else {
+            return Err("no progress from the track for 10 minutes".into());
+        };
+        match e["event"].as_str() {
+            Some("trial") if e["phase"] == "ended" => return Ok(Ok(e["summary"].clone())),
+            Some("fault") => return Ok(Err(e)),
+            Some("detection") => on_detection(&e),
+            _ => {}
+        }
+    }
+}
+
+/// Say that the daemon refused `command`'s request: its reply as it is (`raw`, on stdout),
+/// else one line on stderr.
+pub fn report_refusal(command: &str, reply: &Value, raw: bool) {
+    if raw {
+        outln!("{reply}");
+    } else {
+        eprintln!(
+            "{command}: refused: {} [{}]",
+            reply["reason"].as_str().unwrap_or("?"),
+            reply["error"].as_str().unwrap_or("?")
+        );
     }
 }

@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use serde_json::{Value, json};
 
 use crate::cli::console::{describe_event, print_summary};
-use crate::cli::console_flow::{follow_search, wait_mark, wait_state};
+use crate::cli::console_flow::{follow_search, follow_track, wait_mark, wait_state};
 use crate::console::client::Client;
 use crate::live::layout::LAYOUT;
 use crate::live::server::LiveError;
@@ -329,29 +329,20 @@ fn drive(
     let mut located = 0;
     c.call("track", json!({"length_m": length_m}), T)
         .map_err(|e| e.to_string())?;
-    let summary = loop {
-        let Some(e) = c
-            .next_event(Duration::from_secs(600))
-            .map_err(|e| e.to_string())?
-        else {
-            return Err("no progress from the daemon for 10 minutes".into());
-        };
-        match e["event"].as_str() {
-            Some("trial") if e["phase"] == "ended" => break e["summary"].clone(),
-            Some("fault") => {
-                say!(say, "{}", describe_event(&e).unwrap_or_default());
-                return Ok(false);
-            }
-            Some("detection") => {
-                if e["kind"] == "located" {
-                    located += 1;
-                    say.located(located);
-                }
-                if let Some(line) = describe_event(&e) {
-                    say!(say, "  {line}");
-                }
-            }
-            _ => {}
+    let followed = follow_track(&mut c, &mut |e| {
+        if e["kind"] == "located" {
+            located += 1;
+            say.located(located);
+        }
+        if let Some(line) = describe_event(e) {
+            say!(say, "  {line}");
+        }
+    })?;
+    let summary = match followed {
+        Ok(summary) => summary,
+        Err(fault) => {
+            say!(say, "{}", describe_event(&fault).unwrap_or_default());
+            return Ok(false);
         }
     };
     say.tracking(false);

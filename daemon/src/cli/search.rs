@@ -14,7 +14,7 @@ use std::time::Duration;
 use serde_json::{Value, json};
 
 use crate::cli::console::{Conn, describe_event, print_summary};
-use crate::cli::console_flow::{follow_search, wait_mark, wait_state};
+use crate::cli::console_flow::{follow_search, follow_track, wait_mark, wait_state};
 use crate::cli::failure;
 use crate::cli::stdout::outln;
 use crate::console::client::Client;
@@ -121,15 +121,7 @@ fn run_on(c: &mut Client, args: &Args, r: [f64; 4]) -> Result<ExitCode, String> 
         )
         .map_err(|e| e.to_string())?;
     if reply["ok"] != Value::Bool(true) {
-        if raw {
-            outln!("{reply}");
-        } else {
-            eprintln!(
-                "search: refused: {} [{}]",
-                reply["reason"].as_str().unwrap_or("?"),
-                reply["error"].as_str().unwrap_or("?")
-            );
-        }
+        crate::cli::console_flow::report_refusal(NAME, &reply, raw);
         return Ok(ExitCode::FAILURE);
     }
     let outcome = follow_search(c, &mut |e, line| {
@@ -193,24 +185,12 @@ fn run_on(c: &mut Client, args: &Args, r: [f64; 4]) -> Result<ExitCode, String> 
         T,
     )
     .map_err(|e| e.to_string())?;
-    let summary = loop {
-        let Some(e) = c
-            .next_event(Duration::from_secs(600))
-            .map_err(|e| e.to_string())?
-        else {
-            return Err("no progress from the track for 10 minutes".into());
-        };
-        match e["event"].as_str() {
-            Some("trial") if e["phase"] == "ended" => break e["summary"].clone(),
-            Some("fault") => return Err(describe_event(&e).unwrap_or_default()),
-            Some("detection") if !raw => {
-                if let Some(line) = describe_event(&e) {
-                    outln!("  {line}");
-                }
-            }
-            _ => {}
+    let summary = follow_track(c, &mut |e| {
+        if !raw && let Some(line) = describe_event(e) {
+            outln!("  {line}");
         }
-    };
+    })?
+    .map_err(|fault| describe_event(&fault).unwrap_or_default())?;
     if raw {
         outln!("{summary}");
     } else {

@@ -131,9 +131,7 @@ impl Supervisor {
         self.publish(Stream::Search, 0, &v, true);
         if let SearchEvent::Look(r) = &e {
             self.search_looks.push((r.at, r.felt.is_some()));
-            let looks = std::mem::take(&mut self.search_looks);
-            self.live_search_map(t_s, &looks);
-            self.search_looks = looks;
+            self.live_search_map(t_s);
         }
         if let SearchEvent::Finished(o) = e {
             self.log_line(t_s, level::INFO, describe(&o));

@@ -16,7 +16,8 @@ const TILE_THICKNESS_M: f64 = 0.0002;
 
 impl Supervisor {
     /// Publish the search's map now (live only: a search opens no trial file).
-    pub(super) fn live_search_map(&self, t: f64, looks: &[(SurfacePoint, bool)]) {
+    pub(super) fn live_search_map(&self, t: f64) {
+        let looks = &self.search_looks;
         let Some(searcher) = self.searcher.as_ref() else {
             return;
         };
