@@ -145,6 +145,20 @@ impl LineMap {
         self.centre.z_m + self.offsets[i] + self.tans[j] * (x - self.centre.x_m)
     }
 
+    /// Weigh by `1 − p_d` every line crossing the inner part of a look centred at `at`.
+    fn rule_out_inner(&mut self, at: SurfacePoint) {
+        let inner = self.settings.reach_m - FLANK_MARGIN_M;
+        let miss = (1.0 - self.settings.p_detect).ln();
+        let n_off = self.offsets.len();
+        for j in 0..self.headings.len() {
+            for i in 0..n_off {
+                if (self.z_at(j, i, at.x_m) - at.z_m).abs() <= inner {
+                    self.log_p[j * n_off + i] += miss;
+                }
+            }
+        }
+    }
+
     /// Update with one look centred at `at`.
     pub fn observe(&mut self, at: SurfacePoint, reading: LookReading) {
         let s = self.settings;
@@ -152,32 +166,15 @@ impl LineMap {
         let beyond_felt = (s.p_false / (2.0 * reach)).ln();
         let n_off = self.offsets.len();
         match reading {
+            // A miss and a flank both rule out the lines under the array's inner part (over
+            // the outer elements a pulse may be missed or felt only as a flank); they differ
+            // in what they say about "no artery".
             LookReading::Nothing => {
-                // Over the outer elements a pulse may be missed or felt only as a flank: a
-                // miss says nothing about them.
-                let inner = reach - FLANK_MARGIN_M;
-                let miss = (1.0 - s.p_detect).ln();
-                for j in 0..self.headings.len() {
-                    for i in 0..n_off {
-                        let xi = self.z_at(j, i, at.x_m) - at.z_m;
-                        if xi.abs() <= inner {
-                            self.log_p[j * n_off + i] += miss;
-                        }
-                    }
-                }
+                self.rule_out_inner(at);
                 self.log_absent += (1.0 - s.p_false).ln();
             }
             LookReading::Flank => {
-                let inner = reach - FLANK_MARGIN_M;
-                let miss = (1.0 - s.p_detect).ln();
-                for j in 0..self.headings.len() {
-                    for i in 0..n_off {
-                        let xi = self.z_at(j, i, at.x_m) - at.z_m;
-                        if xi.abs() <= inner {
-                            self.log_p[j * n_off + i] += miss;
-                        }
-                    }
-                }
+                self.rule_out_inner(at);
                 self.log_absent += s.p_false.ln();
             }
             LookReading::Felt { offset_z_m, se_m } => {

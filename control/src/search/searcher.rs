@@ -534,12 +534,7 @@ impl Searcher {
             heading_sd_rad: summary.heading_sd_rad,
             looks: self.looks,
         }));
-        let (best_heading, _) = self.map.best_line();
-        if summary.p_present >= self.params.found_probability
-            && self
-                .map
-                .heading_mass_within(best_heading, self.params.heading_tolerance_rad)
-                >= self.params.heading_confidence
+        if self.line_known(summary.p_present)
             && let Some(seeds) = self.seeds()
         {
             self.finish(SearchOutcome::Found {
@@ -618,22 +613,28 @@ impl Searcher {
         });
     }
 
+    /// Does the map know the line: an artery at least `found_probability` probable
+    /// (`p_present`, from the map's summary) and its heading within the tolerance of the
+    /// best line's with the configured confidence?
+    fn line_known(&self, p_present: f64) -> bool {
+        let (heading, _) = self.map.best_line();
+        p_present >= self.params.found_probability
+            && self
+                .map
+                .heading_mass_within(heading, self.params.heading_tolerance_rad)
+                >= self.params.heading_confidence
+    }
+
     /// Once the map knows the line (an artery to the found probability, its heading to the
     /// configured confidence) but no pair of seeds agrees with it: a look centred on the
     /// line, nearest to `from`, at least the seed separation from any seed felt there
     /// already (so that the next felt point can pair with it). `None` while the
     /// line is not known or no such place lies in the region.
     fn seeding_look(&self, from: SurfacePoint) -> Option<SurfacePoint> {
-        let summary = self.map.summary();
-        let (heading, z_c) = self.map.best_line();
-        if summary.p_present < self.params.found_probability
-            || self
-                .map
-                .heading_mass_within(heading, self.params.heading_tolerance_rad)
-                < self.params.heading_confidence
-        {
+        if !self.line_known(self.map.summary().p_present) {
             return None;
         }
+        let (heading, z_c) = self.map.best_line();
         let inner: Vec<SurfacePoint> = self.inner_felt().iter().map(|p| p.point.point).collect();
         let c = self.region.centre();
         let area = self.region.inset(self.params.edge_margin_m);
