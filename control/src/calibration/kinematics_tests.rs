@@ -106,6 +106,7 @@ fn a_tissue_frame_yawed_5_degrees_is_found_from_touches_at_the_arm_s_joints() {
     let artery = ArteryCourse {
         from: touch(-0.1, 0.0),
         to: touch(0.1, 0.0),
+        lateral_m: 0.0,
     };
     let fit = fit_tissue_frame(&surface, Some(&artery), &configured).unwrap();
     let yaw_error = fit.placement.yaw_rad - truth.yaw_rad;

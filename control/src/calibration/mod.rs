@@ -12,6 +12,7 @@ pub mod tactile;
 mod tactile_applied;
 pub mod tissue_frame;
 pub mod tolerance;
+pub mod touch;
 
 #[cfg(test)]
 mod kinematics_tests;
@@ -23,3 +24,4 @@ pub use tactile::{
 };
 pub use tissue_frame::{ArteryCourse, TissueFit, TissueFrameError, YawSource, fit_tissue_frame};
 pub use tolerance::{Bound, Check, Tolerances, all_passed};
+pub use touch::{SurfaceTouch, Touch, TouchError, TouchSettings};

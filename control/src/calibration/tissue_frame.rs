@@ -32,11 +32,13 @@ pub const MIN_ARTERY_SPAN_M: f64 = 0.01;
 pub const MAX_SURFACE_TILT_RAD: f64 = FRAC_PI_3;
 
 /// Two touched points along the expected artery course, base frame, m; tissue `+x` runs from
-/// `from` toward `to`.
+/// `from` toward `to`. The line through them lies at tissue `z = lateral_m` (0 by the usual
+/// convention, the artery along tissue `x`; a phantom's drawing may put it elsewhere).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ArteryCourse {
     pub from: Point3<f64>,
     pub to: Point3<f64>,
+    pub lateral_m: f64,
 }
 
 /// Where the fitted placement's yaw came from.
@@ -154,7 +156,10 @@ pub fn fit_tissue_frame(
         });
     }
     if let Some(a) = artery
-        && let Some(index) = [a.from, a.to].iter().position(|p| !finite(p))
+        && let Some(index) = [a.from, a.to]
+            .iter()
+            .position(|p| !finite(p))
+            .or((!a.lateral_m.is_finite()).then_some(0))
     {
         return Err(TissueFrameError::NonFinite {
             what: "artery point",
@@ -229,10 +234,15 @@ pub fn fit_tissue_frame(
             }
             let (ex, ez) = (dx / span_m, dz / span_m);
             let along = (ox - a.from.x) * ex + (oz - a.from.z) * ez;
-            // Tissue x turned by the yaw about +y is (cos ψ, 0, −sin ψ).
+            // Tissue x turned by the yaw about +y is (cos ψ, 0, −sin ψ) = (ex, 0, ez), tissue
+            // z is (sin ψ, 0, cos ψ) = (−ez, 0, ex): the origin lies `lateral_m` to −z of the
+            // line.
             (
                 (-dz).atan2(dx),
-                (a.from.x + along * ex, a.from.z + along * ez),
+                (
+                    a.from.x + along * ex + a.lateral_m * ez,
+                    a.from.z + along * ez - a.lateral_m * ex,
+                ),
                 YawSource::ArteryCourse,
             )
         }

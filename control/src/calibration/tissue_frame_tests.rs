@@ -22,7 +22,39 @@ fn artery_of(truth: &TissuePlacement, x_from: f64, x_to: f64) -> ArteryCourse {
     ArteryCourse {
         from: truth.to_base(&Point3::new(x_from, 0.0, 0.0)),
         to: truth.to_base(&Point3::new(x_to, 0.0, 0.0)),
+        lateral_m: 0.0,
     }
+}
+
+#[test]
+fn a_course_off_the_frames_axis_keeps_the_origin_where_it_truly_is() {
+    // The course 27.2 mm to +z of tissue x (the shipped arcs' chord), yawed 5 degrees, the
+    // surface 2 mm higher than configured; the origin's horizontal position is right.
+    let configured = placement([0.0, -0.3745, 0.055], 0.0);
+    let truth = placement([0.0, -0.3725, 0.055], 5f64.to_radians());
+    let lateral = 0.0272;
+    let course = ArteryCourse {
+        from: truth.to_base(&Point3::new(-0.113, 0.0, lateral)),
+        to: truth.to_base(&Point3::new(0.113, 0.0, lateral)),
+        lateral_m: lateral,
+    };
+    let fit = fit_tissue_frame(&touches(&truth, &PATCH), Some(&course), &configured).unwrap();
+    for i in 0..3 {
+        let d = fit.placement.origin_in_base_m[i] - truth.origin_in_base_m[i];
+        assert!(d.abs() < 1e-12, "origin {i} off by {d} m: {fit:?}");
+    }
+    assert!((fit.placement.yaw_rad - truth.yaw_rad).abs() < 1e-12);
+    // Taken as on tissue x, the same course would shift the origin across by 27 mm.
+    let on_axis = ArteryCourse {
+        lateral_m: 0.0,
+        ..course
+    };
+    let wrong = fit_tissue_frame(&touches(&truth, &PATCH), Some(&on_axis), &configured).unwrap();
+    let shift = (wrong.placement.origin_in_base_m[2] - truth.origin_in_base_m[2]).abs();
+    assert!(
+        (shift - lateral * truth.yaw_rad.cos()).abs() < 1e-9,
+        "{shift}"
+    );
 }
 
 const PATCH: [(f64, f64); 5] = [
@@ -201,6 +233,7 @@ fn degenerate_touches_are_refused_naming_why() {
     let short = ArteryCourse {
         from: Point3::new(0.0, -0.3, 0.0),
         to: Point3::new(0.005, -0.25, 0.005),
+        lateral_m: 0.0,
     };
     assert!(matches!(
         fit_tissue_frame(&good, Some(&short), &prior),
@@ -209,6 +242,7 @@ fn degenerate_touches_are_refused_naming_why() {
     let nan_artery = ArteryCourse {
         from: Point3::new(0.0, -0.3, 0.0),
         to: Point3::new(f64::INFINITY, -0.3, 0.0),
+        lateral_m: 0.0,
     };
     assert_eq!(
         fit_tissue_frame(&good, Some(&nan_artery), &prior),
@@ -257,6 +291,7 @@ fn coordinates_too_large_for_the_fit_are_refused_not_answered_with_nan() {
     let far = ArteryCourse {
         from: Point3::new(-1e308, -0.3, 0.0),
         to: Point3::new(1e308, -0.3, 0.0),
+        lateral_m: 0.0,
     };
     assert_eq!(
         fit_tissue_frame(&touches(&prior, &PATCH), Some(&far), &prior),

@@ -168,17 +168,32 @@ impl MotionPlanner {
         speed_m_s: f64,
         t_s: f64,
     ) -> Result<(), MotionError> {
-        finite_time(t_s)?;
-        finite_point("move start", &from)?;
         if !target.is_finite() {
             return Err(MotionError::NonFinite {
                 what: "move target",
             });
         }
+        let to = self.contact_point(&target);
+        self.start_to_point(from, to, speed_m_s, t_s)
+    }
+
+    /// A straight move between any two sensor-centre points (tissue frame), at any height:
+    /// the tissue-frame calibration's lifts and slow descents onto the surface. Arrival is
+    /// judged over the surface (`x`, `z`) as for every move.
+    pub fn start_to_point(
+        &mut self,
+        from: Point3<f64>,
+        to: Point3<f64>,
+        speed_m_s: f64,
+        t_s: f64,
+    ) -> Result<(), MotionError> {
+        finite_time(t_s)?;
+        finite_point("move start", &from)?;
+        finite_point("move target", &to)?;
         if !(speed_m_s.is_finite() && speed_m_s > 0.0) {
             return Err(MotionError::InvalidSpeed { speed_m_s });
         }
-        let to = self.contact_point(&target);
+        let target = SurfacePoint::new(to.x, to.z);
         let delta = to - from;
         let distance_m = delta.norm();
         if !distance_m.is_finite() {

@@ -100,6 +100,31 @@ fn touch_down_from_above_ends_at_the_contact_height() {
 }
 
 #[test]
+fn a_move_to_a_point_ends_at_its_height_and_settles_over_the_surface() {
+    let mut m = planner();
+    let from = Point3::new(0.01, 0.01, -0.002);
+    let to = Point3::new(0.01, -0.004, -0.002);
+    m.start_to_point(from, to, 0.002, 1.0).unwrap();
+    let finish = m.finish_time_s().unwrap();
+    // 14 mm at 2 mm/s takes at least 7 s.
+    assert!(finish - 1.0 >= 7.0, "{finish}");
+    let (p, v) = m.setpoint(finish).unwrap();
+    assert!((p - to).norm() < 1e-12, "{p}");
+    assert_eq!(v, Vector3::zeros());
+    let (mid, _) = m.setpoint(1.0 + (finish - 1.0) / 2.0).unwrap();
+    assert!((mid.y - 0.003).abs() < 1e-9 && mid.x == 0.01 && mid.z == -0.002);
+    assert_eq!(m.target(), Some(SurfacePoint::new(0.01, -0.002)));
+    assert!(
+        m.start_to_point(from, Point3::new(0.0, f64::NAN, 0.0), 0.002, 2.0)
+            .is_err()
+    );
+    assert!(
+        (m.setpoint(finish).unwrap().0 - to).norm() < 1e-12,
+        "a refusal keeps the move"
+    );
+}
+
+#[test]
 fn bad_commands_are_refused_and_leave_the_move_alone() {
     let mut m = planner();
     let a = SurfacePoint::new(0.0, 0.0);
