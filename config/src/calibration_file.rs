@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use crate::load::{ConfigError, Loaded, load_file};
 use crate::validate::{Validate, Validator};
 use control::calibration::{Bound, Check, TactileCalibration};
+use control::frames::TissuePlacement;
 
 /// Bumped on any incompatible change to the file.
 pub const CALIBRATION_VERSION: u32 = 1;
@@ -22,6 +23,9 @@ pub struct CalibrationFile {
     /// The tactile array's tare, gains and unusable elements; absent: not calibrated.
     #[serde(default)]
     pub tactile: Option<TactileRecord>,
+    /// The tissue frame from touched points; absent: `robot.tissue` as configured.
+    #[serde(default)]
+    pub tissue: Option<TissueRecord>,
 }
 
 impl Default for CalibrationFile {
@@ -29,8 +33,38 @@ impl Default for CalibrationFile {
         Self {
             version: CALIBRATION_VERSION,
             tactile: None,
+            tissue: None,
         }
     }
+}
+
+/// One tissue-frame calibration as measured: the touched points, the fit and its checks.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TissueRecord {
+    /// When the last touch ended, UTC.
+    pub measured_utc: String,
+    /// The touched surface points, robot base frame, m.
+    pub surface_in_base_m: Vec<[f64; 3]>,
+    /// The two touched points along the artery's course (tissue `+x` from the first toward
+    /// the second), base frame, m; absent: the yaw was kept from the config.
+    #[serde(default)]
+    pub course_in_base_m: Option<[[f64; 3]; 2]>,
+    /// Tissue `z` of the course's line, m (0: the artery along tissue `x`).
+    #[serde(default)]
+    pub course_lateral_m: f64,
+    /// The placement the touches were made in (the config's, or an earlier calibration's).
+    pub prior: TissuePlacement,
+    /// The fitted placement: what the kinematics use once it passed.
+    pub placement: TissuePlacement,
+    /// The fitted surface's tilt from level, rad.
+    pub tilt_rad: f64,
+    /// RMS and largest distance of the touched points from the fitted plane, m.
+    pub rms_residual_m: f64,
+    pub max_residual_m: f64,
+    pub checks: Vec<CheckRecord>,
+    /// Every check passed; the daemon applies only a record that passed.
+    pub passed: bool,
 }
 
 /// One tactile calibration as measured.
@@ -94,6 +128,27 @@ impl Validate for CalibrationFile {
                 if let Err(e) = t.calibration.validate() {
                     v.problem("calibration", e);
                 }
+                v.check(
+                    !t.passed || t.checks.iter().all(|c| c.passed),
+                    "passed",
+                    "is true, but a check failed",
+                );
+            });
+        }
+        if let Some(t) = &self.tissue {
+            v.at("tissue", |v| {
+                v.check(!t.measured_utc.is_empty(), "measured_utc", "must say when");
+                let p = &t.placement;
+                v.check(
+                    p.origin_in_base_m.iter().all(|x| x.is_finite()) && p.yaw_rad.is_finite(),
+                    "placement",
+                    "must be finite",
+                );
+                v.check(
+                    t.surface_in_base_m.len() >= 3,
+                    "surface_in_base_m",
+                    "needs at least 3 touched points",
+                );
                 v.check(
                     !t.passed || t.checks.iter().all(|c| c.passed),
                     "passed",

@@ -35,6 +35,68 @@ fn tactile() -> TactileRecord {
     }
 }
 
+fn tissue() -> TissueRecord {
+    TissueRecord {
+        measured_utc: "2026-11-28T06-00-00Z".into(),
+        surface_in_base_m: vec![[0.0, -0.2, 0.3], [0.05, -0.2, 0.3], [0.0, -0.2, 0.35]],
+        course_in_base_m: Some([[-0.05, -0.2, 0.3], [0.05, -0.2, 0.31]]),
+        course_lateral_m: 0.0,
+        prior: TissuePlacement {
+            origin_in_base_m: [0.0, -0.2, 0.3],
+            yaw_rad: 0.0,
+        },
+        placement: TissuePlacement {
+            origin_in_base_m: [0.0, -0.2012, 0.3],
+            yaw_rad: -0.0997,
+        },
+        tilt_rad: 0.001,
+        rms_residual_m: 0.0,
+        max_residual_m: 0.0,
+        checks: vec![],
+        passed: true,
+    }
+}
+
+#[test]
+fn a_tissue_record_that_cannot_be_used_is_refused_naming_the_field() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("calibration.ron");
+    let mut t = tissue();
+    t.surface_in_base_m.pop();
+    let file = CalibrationFile {
+        version: CALIBRATION_VERSION,
+        tactile: None,
+        tissue: Some(t),
+    };
+    save(&path, &file).expect("saved");
+    let e = load(&path).expect_err("two points").to_string();
+    assert!(e.contains("tissue.surface_in_base_m"), "{e}");
+    let mut t = tissue();
+    t.placement.yaw_rad = f64::INFINITY;
+    std::fs::write(
+        &path,
+        ron::ser::to_string(&CalibrationFile {
+            version: CALIBRATION_VERSION,
+            tactile: None,
+            tissue: Some(t),
+        })
+        .expect("ron"),
+    )
+    .expect("write");
+    let e = load(&path).expect_err("infinite yaw").to_string();
+    assert!(e.contains("tissue.placement"), "{e}");
+}
+
+#[test]
+fn a_file_from_before_the_tissue_procedure_still_loads() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("calibration.ron");
+    std::fs::write(&path, "(version: 1)").expect("write");
+    let f = load(&path).expect("loads").expect("present").value;
+    assert_eq!(f.tissue, None);
+    assert_eq!(f.tactile, None);
+}
+
 #[test]
 fn a_saved_file_loads_back_the_same() {
     let dir = tempfile::tempdir().expect("tmp");
@@ -43,6 +105,7 @@ fn a_saved_file_loads_back_the_same() {
     let file = CalibrationFile {
         version: CALIBRATION_VERSION,
         tactile: Some(tactile()),
+        tissue: Some(tissue()),
     };
     save(&path, &file).expect("saved, making the folder");
     let back = load(&path).expect("loads").expect("present");
@@ -63,6 +126,7 @@ fn a_bad_file_is_refused_naming_the_field() {
         &CalibrationFile {
             version: CALIBRATION_VERSION,
             tactile: Some(t),
+            tissue: None,
         },
     )
     .expect("saved");
@@ -79,6 +143,7 @@ fn a_bad_file_is_refused_naming_the_field() {
         &CalibrationFile {
             version: CALIBRATION_VERSION,
             tactile: Some(t),
+            tissue: None,
         },
     )
     .expect("saved");
@@ -132,6 +197,7 @@ fn a_full_disk_leaves_the_old_file_whole() {
     let old = CalibrationFile {
         version: CALIBRATION_VERSION,
         tactile: Some(tactile()),
+        tissue: None,
     };
     save(&path, &old).expect("room for the first");
     let before = std::fs::read(&path).expect("bytes");

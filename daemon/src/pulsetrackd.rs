@@ -231,12 +231,35 @@ fn calibration_at_start(
         tolerances: c.calibration.tolerances,
         tactile: c.calibration.tactile,
         tactile_recording_s: c.calibration.tactile_recording_s,
+        touch: c.calibration.tissue,
         sensor: c.sensor,
         time_scale,
     };
     let file = config::calibration_file::load(&settings.file)
-        .map_err(|e| StartError::Control(format!("calibration file: {e}")))?;
-    let tactile = match file.and_then(|f| f.value.tactile) {
+        .map_err(|e| StartError::Control(format!("calibration file: {e}")))?
+        .map(|l| l.value)
+        .unwrap_or_default();
+    let tissue = match file.tissue {
+        None => None,
+        Some(r) if r.passed => {
+            tracing::info!(
+                "tissue frame of {} from {} in use: origin {:?} m, yaw {:.3} deg",
+                r.measured_utc,
+                settings.file.display(),
+                r.placement.origin_in_base_m,
+                r.placement.yaw_rad.to_degrees()
+            );
+            Some(r)
+        }
+        Some(r) => {
+            return Err(StartError::Control(format!(
+                "calibration file {}: its tissue frame of {} did not pass its checks",
+                settings.file.display(),
+                r.measured_utc
+            )));
+        }
+    };
+    let tactile = match file.tactile {
         None => {
             tracing::info!(
                 "no tactile calibration in {}: the array is read as configured",
@@ -263,7 +286,7 @@ fn calibration_at_start(
             }
         },
     };
-    Ok(Calibration::new(settings, tactile, bench))
+    Ok(Calibration::new(settings, tactile, tissue, bench))
 }
 
 /// Take the configuration's instance lock (which also checks its directories).
@@ -315,7 +338,7 @@ impl Daemon {
         let c = &loaded.config;
         let Parts {
             backend: opened,
-            servo,
+            mut servo,
             tracker: factory,
         } = parts;
 
@@ -365,6 +388,19 @@ impl Daemon {
 
         let info = opened.info.clone();
         let calibration = calibration_at_start(c, info.time_scale, opened.array_bench)?;
+        // A calibrated tissue frame replaces the configured one for the kinematics (the
+        // simulator's truth stays where the config and the scene put it).
+        let mut arm = c.robot.arm_model().ok();
+        if let Some(r) = calibration.tissue_record() {
+            servo.set_placement(0.0, r.placement, None).map_err(|e| {
+                StartError::Control(format!(
+                    "calibration file {}: its tissue frame cannot be used: {}",
+                    c.calibration.file,
+                    e.describe()
+                ))
+            })?;
+            arm = arm.and_then(|a| a.with_placement(r.placement).ok());
+        }
         let wall_bound = info.wall_clock_bound;
         let time_scale = info.time_scale;
         let stop_timeout = Duration::from_secs_f64((5.0 / time_scale).clamp(0.5, 5.0));
@@ -402,7 +438,7 @@ impl Daemon {
             }),
             min_free_bytes: c.recording.min_free_bytes,
             trial_metadata: crate::recording::provenance::static_records(&loaded),
-            arm: c.robot.arm_model().ok(),
+            arm,
             search: c.search,
             arrival_tolerance_m: c.control.motion.settle_tolerance_m,
         };

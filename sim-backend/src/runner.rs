@@ -59,18 +59,27 @@ pub fn run_trial(
     tracker: &str,
     seed: u64,
 ) -> Result<TrialResult, SimError> {
-    run_trial_calibrated(scene, config, tracker, seed, None)
+    run_trial_calibrated(scene, config, tracker, seed, &Calibrated::default())
 }
 
-/// [`run_trial`] with the tactile array's calibration applied as the daemon applies it:
-/// every frame corrected before the tracker sees it, the tracker built with the
-/// calibration's unusable elements skipped and its measured noise.
+/// What a calibration file gives a trial, applied as the daemon applies it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Calibrated {
+    /// Every frame corrected before the tracker sees it, the tracker built with the
+    /// calibration's unusable elements skipped and its measured noise.
+    pub tactile: Option<TactileCalibration>,
+    /// The tissue frame the kinematics use in place of `robot.tissue` (the scene's truth
+    /// stays where the config and the scene put it).
+    pub tissue: Option<control::frames::TissuePlacement>,
+}
+
+/// [`run_trial`] with a calibration applied.
 pub fn run_trial_calibrated(
     scene: &Scene,
     config: &config::Config,
     tracker: &str,
     seed: u64,
-    calibration: Option<&TactileCalibration>,
+    calibration: &Calibrated,
 ) -> Result<TrialResult, SimError> {
     let wall = Instant::now();
     let mut trial = Lockstep::new(scene, config, tracker, seed, calibration)?;
@@ -165,9 +174,10 @@ impl Lockstep {
         config: &config::Config,
         tracker: &str,
         seed: u64,
-        calibration: Option<&TactileCalibration>,
+        calibrated: &Calibrated,
     ) -> Result<Self, SimError> {
         let robot = &config.robot;
+        let calibration = calibrated.tactile.as_ref();
         let sensor = match calibration {
             Some(c) => c
                 .geometry(&config.sensor)
@@ -178,7 +188,7 @@ impl Lockstep {
             robot.phantom,
             robot.joint_limits,
             robot.pivot,
-            robot.tissue,
+            calibrated.tissue.unwrap_or(robot.tissue),
             robot.sensor_offset_m,
         )?;
         let tracker = control::tracker::build(tracker, &config.tracker.params, &sensor).map_err(
@@ -222,7 +232,7 @@ impl Lockstep {
             log: Vec::new(),
             recent_truth: std::collections::VecDeque::with_capacity(RECENT_FRAMES + 1),
             load_reading: None,
-            calibration: calibration.copied(),
+            calibration: calibrated.tactile,
         };
         lockstep.load_reading = described_rod(config, &lockstep.bench).map(|rod| LoadReading {
             rod,

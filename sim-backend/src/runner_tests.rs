@@ -336,7 +336,8 @@ fn the_arm_torques_say_where_the_compliant_rod_left_the_sensor() {
     for name in ["seed-arc-145.ron", "seed-arc-220.ron", "seed-s-curve.ron"] {
         let s = scene(name);
         let config = sim_config();
-        let mut trial = Lockstep::new(&s, &config, "beatslide", 1, None).expect("builds");
+        let mut trial =
+            Lockstep::new(&s, &config, "beatslide", 1, &Calibrated::default()).expect("builds");
         trial.bench.set_enabled(true);
         trial.pd.reset();
         trial.hold_here().expect("holds");

@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::validate::{Validate, Validator};
-use control::calibration::{TactileSettings, Tolerances};
+use control::calibration::{TactileSettings, Tolerances, TouchSettings};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -19,6 +19,8 @@ pub struct CalibrationSection {
     pub tactile: TactileSettings,
     /// Seconds of frames each tactile recording (no load, known load) takes by default.
     pub tactile_recording_s: f64,
+    /// The tissue-frame procedure's touches: thresholds, clearance and speeds.
+    pub tissue: TouchSettings,
 }
 
 impl Default for CalibrationSection {
@@ -28,6 +30,7 @@ impl Default for CalibrationSection {
             tolerances: Tolerances::default(),
             tactile: TactileSettings::default(),
             tactile_recording_s: 5.0,
+            tissue: TouchSettings::default(),
         }
     }
 }
@@ -42,5 +45,8 @@ impl Validate for CalibrationSection {
             v.problem("tactile", e);
         }
         v.in_range("tactile_recording_s", self.tactile_recording_s, 0.1, 600.0);
+        if let Err(e) = self.tissue.check() {
+            v.problem("tissue", e);
+        }
     }
 }

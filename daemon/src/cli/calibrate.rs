@@ -28,10 +28,45 @@ pub enum Procedure {
     },
     /// The pivot (incision) from several rod poses (not built yet).
     Pivot(Plain),
-    /// The tissue frame from touched surface points (not built yet).
-    Tissue(Plain),
+    /// The tissue frame: touch the surface at three or more points (and two along the
+    /// artery) and fit where the tissue lies; the arm moves on its own.
+    Tissue(TissueArgs),
     /// Encoder homing and the joint stops (not built yet).
     Joints(Plain),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct TissueArgs {
+    #[command(flatten)]
+    pub conn: Conn,
+    /// A surface point to touch, mm, tissue frame as configured: x,z. Three or more, across
+    /// the patch (repeat the flag).
+    #[arg(long = "point", value_name = "X,Z", allow_hyphen_values = true, required = true,
+          value_parser = point_mm)]
+    pub points: Vec<[f64; 2]>,
+    /// Two points along the artery's course, mm: x0,z0,x1,z1 (tissue +x runs from the first
+    /// toward the second). Without it the configured yaw is kept.
+    #[arg(long, value_name = "X0,Z0,X1,Z1", allow_hyphen_values = true,
+          value_parser = course_mm)]
+    pub course: Option<[f64; 4]>,
+    /// Where the course's line lies across the tissue frame, mm (tissue z; 0: the artery
+    /// runs along tissue x, the usual convention).
+    #[arg(
+        long,
+        value_name = "MM",
+        allow_hyphen_values = true,
+        default_value_t = 0.0,
+        requires = "course"
+    )]
+    pub course_lateral_mm: f64,
+}
+
+fn point_mm(s: &str) -> Result<[f64; 2], String> {
+    crate::cli::lengths::mm_tuple("--point", ["x", "z"], s)
+}
+
+fn course_mm(s: &str) -> Result<[f64; 4], String> {
+    crate::cli::lengths::mm_tuple("--course", ["x0", "z0", "x1", "z1"], s)
 }
 
 #[derive(Debug, clap::Subcommand)]
@@ -81,7 +116,12 @@ pub fn request(p: &Procedure) -> (&Conn, Value) {
                 "load_per_element_n": load_per_element_n, "duration_s": duration_s}),
         ),
         Procedure::Pivot(p) => (&p.conn, json!({"procedure": "pivot"})),
-        Procedure::Tissue(p) => (&p.conn, json!({"procedure": "tissue"})),
+        Procedure::Tissue(t) => (
+            &t.conn,
+            json!({"procedure": "tissue", "step": "touch", "points_m": t.points,
+                "course_m": t.course.map(|c| [[c[0], c[1]], [c[2], c[3]]]),
+                "course_lateral_m": t.course_lateral_mm * 1e-3}),
+        ),
         Procedure::Joints(p) => (&p.conn, json!({"procedure": "joints"})),
     }
 }
@@ -116,13 +156,21 @@ fn run_on(c: &mut Client, req: &Value, raw: bool) -> Result<ExitCode, String> {
         return Ok(ExitCode::FAILURE);
     }
     let step = reply["step"].as_str().unwrap_or("?").to_string();
-    // The recording's own length plus room for a slow simulator.
-    let wait = Duration::from_secs_f64(reply["duration_s"].as_f64().unwrap_or(60.0) * 20.0 + 30.0);
+    let procedure = reply["procedure"].as_str().unwrap_or("?").to_string();
+    // The recording's own length, or a minute a touch, plus room for a slow simulator.
+    let wait = match reply["points"].as_u64() {
+        Some(points) => Duration::from_secs(60 * points + 60),
+        None => Duration::from_secs_f64(reply["duration_s"].as_f64().unwrap_or(60.0) * 20.0 + 30.0),
+    };
     if !raw {
-        eprintln!(
-            "recording {} frames ({} s) ...",
-            reply["frames"], reply["duration_s"]
-        );
+        if procedure == "tissue" {
+            eprintln!("touching {} points ...", reply["points"]);
+        } else {
+            eprintln!(
+                "recording {} frames ({} s) ...",
+                reply["frames"], reply["duration_s"]
+            );
+        }
     }
     let deadline = std::time::Instant::now() + wait;
     loop {
@@ -144,12 +192,25 @@ fn run_on(c: &mut Client, req: &Value, raw: bool) -> Result<ExitCode, String> {
         }
         match e["phase"].as_str() {
             Some("started") | None => continue,
+            Some("touched") => {
+                if !raw {
+                    let at = |i: usize| num(&e["at_m"][i]) * 1e3;
+                    eprintln!(
+                        "  touched point {}: ({:.1}, {:.1}) mm, surface {:+.2} mm from the configured one",
+                        e["point"],
+                        at(0),
+                        at(2),
+                        at(1)
+                    );
+                }
+                continue;
+            }
             Some("failed") => {
                 if raw {
                     outln!("{e}");
                 } else {
                     eprintln!(
-                        "calibrate tactile {step}: failed: {}",
+                        "calibrate {procedure} {step}: failed: {}",
                         e["reason"].as_str().unwrap_or("?")
                     );
                 }
@@ -176,6 +237,31 @@ fn num(v: &Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
 }
 
+/// The tissue frame's result: millimetres and degrees for people.
+fn print_tissue(e: &Value) {
+    let p = &e["placement"];
+    let d = &e["origin_change_m"];
+    outln!(
+        "tissue frame: yaw {:.3} deg ({:+.3} deg), origin ({:.2}, {:.2}, {:.2}) mm ({:+.2}, {:+.2}, {:+.2} mm), yaw from {}",
+        num(&p["yaw_rad"]).to_degrees(),
+        num(&e["yaw_change_rad"]).to_degrees(),
+        num(&p["origin_in_base_m"][0]) * 1e3,
+        num(&p["origin_in_base_m"][1]) * 1e3,
+        num(&p["origin_in_base_m"][2]) * 1e3,
+        num(&d[0]) * 1e3,
+        num(&d[1]) * 1e3,
+        num(&d[2]) * 1e3,
+        e["yaw_from"].as_str().unwrap_or("?")
+    );
+    outln!(
+        "  surface tilt {:.2} deg; plane residual RMS {:.3} mm, largest {:.3} mm (point {})",
+        num(&e["tilt_rad"]).to_degrees(),
+        num(&e["rms_residual_m"]) * 1e3,
+        num(&e["max_residual_m"]) * 1e3,
+        e["worst_point"]
+    );
+}
+
 /// Millinewtons for people.
 fn print_result(e: &Value) {
     if e["step"] == "tare" {
@@ -191,6 +277,15 @@ fn print_result(e: &Value) {
         outln!("now put the known load on the array and run `pulsetrack calibrate tactile load`");
         return;
     }
+    if e["procedure"] == "tissue" {
+        print_tissue(e);
+    } else {
+        print_elements(e);
+    }
+    print_verdict(e);
+}
+
+fn print_elements(e: &Value) {
     outln!(
         "tactile calibration under {:.1} mN per element; element: gain ± SE, offset mN, noise SD mN, status",
         num(&e["load_per_element_n"]) * 1e3
@@ -206,6 +301,9 @@ fn print_result(e: &Value) {
             el["status"].as_str().unwrap_or("?")
         );
     }
+}
+
+fn print_verdict(e: &Value) {
     for c in e["checks"].as_array().into_iter().flatten() {
         outln!(
             "  check {}: {:.4} {} {} -> {}",
@@ -222,9 +320,12 @@ fn print_result(e: &Value) {
     }
     if e["applied"] == Value::Bool(true) {
         outln!(
-            "passed: written to {} and in use; unusable elements {}",
+            "passed: written to {} and in use{}",
             e["file"].as_str().unwrap_or("?"),
-            e["unusable_elements"]
+            match e["unusable_elements"].as_array() {
+                Some(_) => format!("; unusable elements {}", e["unusable_elements"]),
+                None => String::new(),
+            }
         );
     } else {
         outln!(

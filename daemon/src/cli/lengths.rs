@@ -140,6 +140,30 @@ pub fn either(mm: Option<Metres>, m: Option<Metres>) -> Option<f64> {
     mm.or(m).map(|v| v.0)
 }
 
+/// Metres from `N` comma-separated millimetre numbers (`x0,z0,x1,z1`, `x,z`), each named in
+/// the error with its `flag`.
+pub fn mm_tuple<const N: usize>(flag: &str, names: [&str; N], s: &str) -> Result<[f64; N], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != N {
+        return Err(format!(
+            "{flag} {s:?}: give {N} numbers in mm, {} (got {})",
+            names.join(","),
+            parts.len()
+        ));
+    }
+    let mut out = [0.0; N];
+    for (i, (p, name)) in parts.iter().zip(names).enumerate() {
+        let v: f64 = p
+            .parse()
+            .map_err(|_| format!("{flag}: {name} = {p:?} is not a number (mm)"))?;
+        if !v.is_finite() {
+            return Err(format!("{flag}: {name} = {p:?} is not a finite number"));
+        }
+        out[i] = v * 1e-3;
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -48,24 +48,7 @@ const MARK_ATTEMPTS: usize = 3;
 
 /// The region's corners in metres, from `x0,z0,x1,z1` in millimetres.
 pub fn parse_region(s: &str) -> Result<[f64; 4], String> {
-    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-    if parts.len() != 4 {
-        return Err(format!(
-            "--region {s:?}: give four numbers in mm, x0,z0,x1,z1 (got {})",
-            parts.len()
-        ));
-    }
-    let mut out = [0.0; 4];
-    for (i, (p, name)) in parts.iter().zip(["x0", "z0", "x1", "z1"]).enumerate() {
-        let v: f64 = p
-            .parse()
-            .map_err(|_| format!("--region: {name} = {p:?} is not a number (mm)"))?;
-        if !v.is_finite() {
-            return Err(format!("--region: {name} = {p:?} is not a finite number"));
-        }
-        out[i] = v * 1e-3;
-    }
-    Ok(out)
+    crate::cli::lengths::mm_tuple("--region", ["x0", "z0", "x1", "z1"], s)
 }
 
 pub fn run(args: &Args) -> ExitCode {

@@ -57,30 +57,47 @@ pub struct Args {
     /// default: the shipped simulator configuration.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// A calibration file (as `pulsetrack calibrate` writes it): its tactile calibration is
-    /// applied to every trial as the daemon applies it. Default: none (the array as
-    /// configured, whatever errors the scene gives it).
+    /// A calibration file (as `pulsetrack calibrate` writes it): its tactile calibration and
+    /// tissue frame are applied to every trial as the daemon applies them. Default: none (the
+    /// array and the tissue frame as configured, whatever errors the scene gives them).
     #[arg(long, value_name = "FILE")]
     pub calibration: Option<PathBuf>,
 }
 
 /// The tactile calibration in `path`'s calibration file; refused as the daemon would refuse it
 /// (none, one that did not pass, or one leaving too few elements with `sensor`'s skipped).
-fn tactile_calibration(
+fn file_calibration(
     path: &Path,
     sensor: &control::sensor::ArrayGeometry,
-) -> Result<control::calibration::TactileCalibration, String> {
+) -> Result<sim::runner::Calibrated, String> {
     let file = config::calibration_file::load(path)
         .map_err(|e| e.to_string())?
-        .ok_or_else(|| format!("{}: no such file", path.display()))?;
-    let record = file
-        .value
-        .tactile
-        .ok_or_else(|| format!("{}: holds no tactile calibration", path.display()))?;
-    // The daemon's own test of a record it may use.
-    crate::supervisor::calibration::usable_record(&record, sensor)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(record.calibration)
+        .ok_or_else(|| format!("{}: no such file", path.display()))?
+        .value;
+    if file.tactile.is_none() && file.tissue.is_none() {
+        return Err(format!("{}: holds no calibration", path.display()));
+    }
+    // The daemon's own tests of a record it may use.
+    let tactile = match file.tactile {
+        Some(r) => Some(
+            crate::supervisor::calibration::usable_record(&r, sensor)
+                .map(|_| r.calibration)
+                .map_err(|e| format!("{}: {e}", path.display()))?,
+        ),
+        None => None,
+    };
+    let tissue = match file.tissue {
+        Some(r) if r.passed => Some(r.placement),
+        Some(r) => {
+            return Err(format!(
+                "{}: its tissue frame of {} did not pass its checks",
+                path.display(),
+                r.measured_utc
+            ));
+        }
+        None => None,
+    };
+    Ok(sim::runner::Calibrated { tactile, tissue })
 }
 
 #[derive(Debug, Serialize)]
@@ -120,19 +137,15 @@ fn run_inner(args: &Args) -> Result<ExitCode, String> {
     let calibration = args
         .calibration
         .as_deref()
-        .map(|p| tactile_calibration(p, &config.sensor))
-        .transpose()?;
+        .map(|p| file_calibration(p, &config.sensor))
+        .transpose()?
+        .unwrap_or_default();
     let mut trials = Vec::with_capacity(args.trials as usize);
     for i in 0..args.trials {
         let seed = args.seed.wrapping_add(i as u64);
-        let trial = sim::runner::run_trial_calibrated(
-            &scene,
-            &config,
-            &args.tracker,
-            seed,
-            calibration.as_ref(),
-        )
-        .map_err(|e| e.to_string())?;
+        let trial =
+            sim::runner::run_trial_calibrated(&scene, &config, &args.tracker, seed, &calibration)
+                .map_err(|e| e.to_string())?;
         if args.events && !args.events_text {
             for event in &trial.log {
                 eprintln!("{}", event_line(i + 1, seed, event)?);

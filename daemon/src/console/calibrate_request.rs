@@ -1,12 +1,16 @@
 //! Parsing the `calibrate` verb and the simulator's `place_array` debug hook (a child of the
 //! protocol module, for its argument reader).
 
-use super::{Args, CalibrateStep, DebugAction, ErrorCode, RequestError, err};
+use super::{Args, CalibrateStep, DebugAction, ErrorCode, ParseLimits, RequestError, err};
+use control::frames::SurfacePoint;
 use serde_json::Value;
 
 /// The procedures the issue names; only those in `BUILT` run.
 const PROCEDURES: [&str; 4] = ["tactile", "pivot", "tissue", "joints"];
-const BUILT: [&str; 1] = ["tactile"];
+const BUILT: [&str; 2] = ["tactile", "tissue"];
+
+/// Most surface points one tissue calibration touches (each takes some 15 s).
+pub const MAX_TOUCHES: usize = 16;
 
 /// The longest recording a step may ask for, s.
 const MAX_DURATION_S: f64 = 600.0;
@@ -39,8 +43,112 @@ fn load(args: &mut Args) -> Result<f64, RequestError> {
     Ok(l)
 }
 
-/// `{"verb": "calibrate", "procedure": "tactile", "step": "tare" | "load", ...}`.
-pub(super) fn parse(args: &mut Args) -> Result<CalibrateStep, RequestError> {
+/// `[[x, z], ...]` in metres: surface points, tissue frame.
+fn parse_points(
+    args: &mut Args,
+    name: &str,
+    limits: &ParseLimits,
+) -> Result<Option<Vec<SurfacePoint>>, RequestError> {
+    let id = args.id;
+    let bad = |why: String| Err(err(Some(id), ErrorCode::BadArgument, why));
+    let list = match args.obj.remove(name) {
+        None | Some(Value::Null) => return Ok(None),
+        Some(Value::Array(a)) => a,
+        Some(other) => {
+            return bad(format!(
+                "`{name}` must be a list of [x, z] points in metres, got {other}"
+            ));
+        }
+    };
+    let mut out = Vec::with_capacity(list.len());
+    for (i, p) in list.iter().enumerate() {
+        let xz: Option<Vec<f64>> = p
+            .as_array()
+            .filter(|a| a.len() == 2)
+            .map(|a| a.iter().filter_map(Value::as_f64).collect());
+        let Some([x, z]) = xz.as_deref().and_then(|v| <[f64; 2]>::try_from(v).ok()) else {
+            return bad(format!(
+                "`{name}` point {i} must be [x, z], two numbers in metres, got {p}"
+            ));
+        };
+        for v in [x, z] {
+            if !(v.is_finite() && v.abs() <= limits.max_coordinate_m) {
+                return Err(err(
+                    Some(id),
+                    ErrorCode::OutOfRange,
+                    format!(
+                        "`{name}` point {i} = [{x}, {z}] m is beyond ±{} m",
+                        limits.max_coordinate_m
+                    ),
+                ));
+            }
+        }
+        out.push(SurfacePoint::new(x, z));
+    }
+    Ok(Some(out))
+}
+
+/// `{"verb": "calibrate", "procedure": "tissue", "points_m": [[x, z], ...],
+/// "course_m": [[x, z], [x, z]]}`.
+fn tissue(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, RequestError> {
+    let id = args.id;
+    if let Some(step) = string(args, "step")?
+        && step != "touch"
+    {
+        return Err(err(
+            Some(id),
+            ErrorCode::BadArgument,
+            format!("unknown tissue step {step:?}; known: touch"),
+        ));
+    }
+    let points = parse_points(args, "points_m", limits)?.unwrap_or_default();
+    if !(3..=MAX_TOUCHES).contains(&points.len()) {
+        return Err(err(
+            Some(id),
+            ErrorCode::BadArgument,
+            format!(
+                "`calibrate` tissue needs `points_m`: 3 to {MAX_TOUCHES} surface points [x, z] to touch, got {}",
+                points.len()
+            ),
+        ));
+    }
+    let course = match parse_points(args, "course_m", limits)? {
+        None => None,
+        Some(c) => match <[SurfacePoint; 2]>::try_from(c) {
+            Ok(c) => Some(c),
+            Err(c) => {
+                return Err(err(
+                    Some(id),
+                    ErrorCode::BadArgument,
+                    format!(
+                        "`course_m` must be two points along the artery, [[x, z], [x, z]], got {}",
+                        c.len()
+                    ),
+                ));
+            }
+        },
+    };
+    let course_lateral_m = args.number("course_lateral_m", Some(0.0))?;
+    if course_lateral_m.abs() > limits.max_coordinate_m {
+        return Err(err(
+            Some(id),
+            ErrorCode::OutOfRange,
+            format!(
+                "`course_lateral_m` = {course_lateral_m} m is beyond ±{} m",
+                limits.max_coordinate_m
+            ),
+        ));
+    }
+    Ok(CalibrateStep::TissueTouch {
+        points,
+        course,
+        course_lateral_m,
+    })
+}
+
+/// `{"verb": "calibrate", "procedure": "tactile", "step": "tare" | "load", ...}`, or the
+/// tissue procedure.
+pub(super) fn parse(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, RequestError> {
     let id = args.id;
     let procedure = string(args, "procedure")?.ok_or_else(|| {
         err(
@@ -65,6 +173,9 @@ pub(super) fn parse(args: &mut Args) -> Result<CalibrateStep, RequestError> {
             )
         };
         return Err(err(Some(id), ErrorCode::BadArgument, why));
+    }
+    if procedure == "tissue" {
+        return tissue(args, limits);
     }
     let duration_s = args.optional_number("duration_s")?;
     if let Some(d) = duration_s

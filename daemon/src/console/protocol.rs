@@ -96,7 +96,7 @@ pub enum DebugAction {
 }
 
 /// A step of a calibration procedure (docs/rig-bring-up.md).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum CalibrateStep {
     /// Record the tactile array with nothing touching it: each element's offset and noise.
     TactileTare { duration_s: Option<f64> },
@@ -105,12 +105,21 @@ pub enum CalibrateStep {
         load_per_element_n: f64,
         duration_s: Option<f64>,
     },
+    /// Touch the tissue surface at `points` (and at the two `course` points along the
+    /// artery), tissue frame as configured, and fit the tissue frame to the touches.
+    TissueTouch {
+        points: Vec<control::frames::SurfacePoint>,
+        course: Option<[control::frames::SurfacePoint; 2]>,
+        /// Tissue `z` of the line through the course points, m (0: the artery along `x`).
+        course_lateral_m: f64,
+    },
 }
 
 impl CalibrateStep {
     pub fn procedure(&self) -> &'static str {
         match self {
             CalibrateStep::TactileTare { .. } | CalibrateStep::TactileLoad { .. } => "tactile",
+            CalibrateStep::TissueTouch { .. } => "tissue",
         }
     }
 
@@ -118,6 +127,7 @@ impl CalibrateStep {
         match self {
             CalibrateStep::TactileTare { .. } => "tare",
             CalibrateStep::TactileLoad { .. } => "load",
+            CalibrateStep::TissueTouch { .. } => "touch",
         }
     }
 
@@ -125,7 +135,13 @@ impl CalibrateStep {
         match self {
             CalibrateStep::TactileTare { duration_s }
             | CalibrateStep::TactileLoad { duration_s, .. } => *duration_s,
+            CalibrateStep::TissueTouch { .. } => None,
         }
+    }
+
+    /// The step moves the arm (and so needs it powered and nothing else moving it).
+    pub fn moves_arm(&self) -> bool {
+        matches!(self, CalibrateStep::TissueTouch { .. })
     }
 }
 
@@ -212,6 +228,20 @@ impl Verb {
                 } = c
                 {
                     put("load_per_element_n", (*load_per_element_n).into());
+                }
+                if let CalibrateStep::TissueTouch {
+                    points,
+                    course,
+                    course_lateral_m,
+                } = c
+                {
+                    put("course_lateral_m", (*course_lateral_m).into());
+                    let xz = |p: &control::frames::SurfacePoint| serde_json::json!([p.x_m, p.z_m]);
+                    put("points_m", points.iter().map(xz).collect());
+                    put(
+                        "course_m",
+                        course.map_or(Value::Null, |c| Value::Array(c.iter().map(xz).collect())),
+                    );
                 }
             }
             Verb::Search {
@@ -490,7 +520,7 @@ pub fn parse_request(line: &[u8], limits: &ParseLimits) -> Result<Request, Reque
             };
             Verb::Track { length_m, label }
         }
-        "calibrate" => Verb::Calibrate(calibrate_request::parse(&mut args)?),
+        "calibrate" => Verb::Calibrate(calibrate_request::parse(&mut args, limits)?),
         "search" => search_request::parse(&mut args, limits)?,
         "subscribe" => {
             let streams = match args.obj.remove("streams") {

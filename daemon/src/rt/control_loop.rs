@@ -280,6 +280,7 @@ impl ControlLoop {
             let stamped = StampedFrame {
                 frame,
                 sensor: self.status.sensor,
+                height_m: self.last_pose.map_or(f64::NAN, |p| p.height_m),
                 loaded_sensor,
                 settled: self.status.settled,
                 shortfall: self.status.shortfall,
@@ -390,6 +391,46 @@ impl ControlLoop {
                         self.status.motion_seq = seq;
                         self.status.settled = false;
                         self.status.shortfall = None;
+                    })
+                }
+            }
+            ControlCommand::MoveToPoint {
+                seq,
+                target,
+                speed_m_s,
+            } => {
+                if self.status.mode != LoopMode::Enabled {
+                    Err(Refusal::NotEnabled)
+                } else if !self.limits.in_workspace(target.x, target.z) {
+                    Err(Refusal::Unreachable(FaultKind::Workspace))
+                } else {
+                    self.servo.move_to_point(now, target, speed_m_s).map(|()| {
+                        self.status.motion_seq = seq;
+                        self.status.settled = false;
+                        self.status.shortfall = None;
+                    })
+                }
+            }
+            ControlCommand::SetPlacement { seq, placement } => {
+                let powered = self.status.mode == LoopMode::Enabled;
+                let state = if powered { joints } else { None };
+                if powered && state.is_none() {
+                    Err(Refusal::CauseStillPresent(FaultKind::JointStale))
+                } else {
+                    self.servo.set_placement(now, placement, state).map(|()| {
+                        // The believed pose in the new frame before the next step compares it
+                        // with a setpoint in that frame.
+                        let q = self.status.position_rad;
+                        self.last_pose = self.servo.sensor_pose(now, &q).ok();
+                        if let Some(p) = self.last_pose {
+                            self.status.sensor = p.centre;
+                            self.status.depth_m = p.depth_m;
+                        }
+                        if powered {
+                            self.status.motion_seq = seq;
+                            self.status.settled = false;
+                            self.status.shortfall = None;
+                        }
                     })
                 }
             }

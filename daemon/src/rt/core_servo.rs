@@ -164,6 +164,7 @@ impl Servo for CoreServo {
         Ok(SensorPose {
             centre: SurfacePoint::new(p.x, p.z),
             depth_m,
+            height_m: p.y,
         })
     }
 
@@ -202,6 +203,50 @@ impl Servo for CoreServo {
         self.planner
             .start_from_point(from, target, speed_m_s, now_s)
             .map_err(|_| Refusal::Unreachable(FaultKind::NonFiniteCommand))
+    }
+
+    fn move_to_point(
+        &mut self,
+        now_s: f64,
+        target: Point3<f64>,
+        speed_m_s: f64,
+    ) -> Result<(), Refusal> {
+        let Some(from) = self.setpoint_point(now_s) else {
+            return Err(Refusal::NotEnabled);
+        };
+        let mid = Point3::from((from.coords + target.coords) / 2.0);
+        for p in [target, mid] {
+            if let Err(e) = self.arm.joints_for_sensor(&p) {
+                return Err(Refusal::Unreachable(kinematic_fault(&e, now_s).kind));
+            }
+        }
+        self.planner
+            .start_to_point(from, target, speed_m_s, now_s)
+            .map_err(|_| Refusal::Unreachable(FaultKind::NonFiniteCommand))
+    }
+
+    fn set_placement(
+        &mut self,
+        now_s: f64,
+        placement: control::frames::TissuePlacement,
+        state: Option<&JointState>,
+    ) -> Result<(), Refusal> {
+        let arm = self
+            .arm
+            .with_placement(placement)
+            .map_err(|e| Refusal::Unreachable(kinematic_fault(&e, now_s).kind))?;
+        let before = std::mem::replace(&mut self.arm, arm);
+        match state {
+            Some(s) => self.hold_here(now_s, s).map_err(|f| {
+                self.arm = before;
+                Refusal::Unreachable(f.kind)
+            }),
+            None => {
+                // Unpowered: the next enable holds where the arm is, in the new frame.
+                self.planner.clear();
+                Ok(())
+            }
+        }
     }
 
     fn hold(&mut self, now_s: f64) {

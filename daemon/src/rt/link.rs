@@ -28,6 +28,18 @@ pub enum ControlCommand {
         target: SurfacePoint,
         speed_m_s: f64,
     },
+    /// A straight move of the sensor centre to a point at any height, tissue frame (the
+    /// tissue-frame calibration's lifts and descents).
+    MoveToPoint {
+        seq: u64,
+        target: nalgebra::Point3<f64>,
+        speed_m_s: f64,
+    },
+    /// Put the tissue frame where a calibration found it; powered, the arm holds where it is.
+    SetPlacement {
+        seq: u64,
+        placement: control::frames::TissuePlacement,
+    },
     /// Latch an `estop` fault: power off at once.
     Estop { seq: u64 },
     /// Latch a fault the supervisor found (a failed recording): power off at once.
@@ -45,6 +57,8 @@ impl ControlCommand {
             | ControlCommand::Disable { seq }
             | ControlCommand::Hold { seq }
             | ControlCommand::MoveTo { seq, .. }
+            | ControlCommand::MoveToPoint { seq, .. }
+            | ControlCommand::SetPlacement { seq, .. }
             | ControlCommand::Estop { seq }
             | ControlCommand::Latch { seq, .. }
             | ControlCommand::Reset { seq }
@@ -118,6 +132,8 @@ pub struct StampedFrame {
     pub frame: TactileFrame,
     /// Believed sensor centre (encoders + fixed-pivot model), tissue frame.
     pub sensor: SurfacePoint,
+    /// ... and its height, tissue frame, m.
+    pub height_m: f64,
     /// Where the arm's load says the sensor centre is (the config's `rod`), while powered.
     pub loaded_sensor: Option<SurfacePoint>,
     /// The motion with this sequence number has arrived (encoders through the kinematics).

@@ -272,6 +272,7 @@ mod tests {
         let pose = SensorPose {
             centre: SurfacePoint::new(0.0, 0.0),
             depth_m: (l.min_depth_m + l.max_depth_m) / 2.0,
+            height_m: -0.003,
         };
         let mut step = ServoStep {
             torques: JointTorques::ZERO,

@@ -15,6 +15,8 @@ pub struct SensorPose {
     pub centre: SurfacePoint,
     /// Insertion depth below the pivot, m.
     pub depth_m: f64,
+    /// Height of the sensor centre, tissue frame (0 on the configured surface), m.
+    pub height_m: f64,
 }
 
 /// One cycle's output of the servo.
@@ -47,6 +49,29 @@ pub trait Servo: Send {
     /// Start a straight move of the sensor centre. Refused, with nothing changed, when the
     /// target is out of reach or outside a limit.
     fn move_to(&mut self, now_s: f64, target: SurfacePoint, speed_m_s: f64) -> Result<(), Refusal>;
+
+    /// Start a straight move of the sensor centre to a point at any height (tissue frame):
+    /// the tissue-frame calibration's lifts and descents. Refused as [`Self::move_to`]; a
+    /// servo without heights refuses it.
+    fn move_to_point(
+        &mut self,
+        _now_s: f64,
+        _target: nalgebra::Point3<f64>,
+        _speed_m_s: f64,
+    ) -> Result<(), Refusal> {
+        Err(Refusal::Backend)
+    }
+
+    /// Put the tissue frame where a calibration found it. The setpoint becomes the
+    /// measured pose in the new frame (`state`, while powered), so that nothing moves.
+    fn set_placement(
+        &mut self,
+        _now_s: f64,
+        _placement: control::frames::TissuePlacement,
+        _state: Option<&JointState>,
+    ) -> Result<(), Refusal> {
+        Err(Refusal::Backend)
+    }
 
     /// Come to rest as soon as the motion limits allow.
     fn hold(&mut self, now_s: f64);

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
 
-use config::calibration_file::{self, CalibrationFile, CheckRecord, TactileRecord};
+use config::calibration_file::{self, CalibrationFile, CheckRecord, TactileRecord, TissueRecord};
 use control::calibration::{TactileCalibration, TactileSettings, Tare, Tolerances, all_passed};
 use control::sensor::ArrayGeometry;
 use control::types::TactileFrame;
@@ -34,6 +34,8 @@ pub struct CalibrationSettings {
     pub tactile: TactileSettings,
     /// Default length of a tactile recording, s.
     pub tactile_recording_s: f64,
+    /// The tissue frame's touches.
+    pub touch: control::calibration::TouchSettings,
     /// The array as configured, before any calibration.
     pub sensor: ArrayGeometry,
     /// The simulated clock's speed against the wall (1 on hardware).
@@ -53,6 +55,8 @@ pub struct Calibration {
     pub settings: CalibrationSettings,
     /// The tactile calibration in use (a record that passed, from the file or a procedure).
     applied: Option<TactileRecord>,
+    /// The tissue frame in use, if a calibration placed it.
+    pub(super) tissue: Option<TissueRecord>,
     tare: Option<Tare>,
     recording: Option<Recording>,
     bench: Option<Box<dyn ArrayBench>>,
@@ -86,15 +90,22 @@ impl Calibration {
     pub fn new(
         settings: CalibrationSettings,
         applied: Option<TactileRecord>,
+        tissue: Option<TissueRecord>,
         bench: Option<Box<dyn ArrayBench>>,
     ) -> Self {
         Self {
             settings,
             applied,
+            tissue,
             tare: None,
             recording: None,
             bench,
         }
+    }
+
+    /// The tissue frame a calibration placed, if any.
+    pub fn tissue_record(&self) -> Option<&TissueRecord> {
+        self.tissue.as_ref()
     }
 
     pub fn recording(&self) -> bool {
@@ -121,6 +132,12 @@ impl Calibration {
                 "measured_utc": r.measured_utc,
                 "unusable_elements": Vec::<usize>::from(r.calibration.unusable_mask()),
                 "noise_sd_n": r.calibration.noise_sd_n(),
+            })),
+            "tissue": self.tissue.as_ref().map(|r| json!({
+                "measured_utc": r.measured_utc,
+                "placement": r.placement,
+                "rms_residual_m": r.rms_residual_m,
+                "tilt_rad": r.tilt_rad,
             })),
             "tare_pending": self.tare.is_some(),
             "recording": self.recording.as_ref().map(|r| json!({
@@ -171,6 +188,14 @@ fn element_json(c: &TactileCalibration) -> Value {
 impl Supervisor {
     /// `calibrate`: start a recording, or say why not.
     pub(super) fn calibrate(&mut self, id: u64, to: Responder, step: CalibrateStep) {
+        if let CalibrateStep::TissueTouch {
+            points,
+            course,
+            course_lateral_m,
+        } = step
+        {
+            return self.tissue_start(id, to, points, course.map(|c| (c, course_lateral_m)));
+        }
         let cal = &mut self.calibration;
         if cal.recording.is_some() {
             return self.reply_err(
@@ -195,7 +220,7 @@ impl Supervisor {
         let wanted = ((duration_s * rate).ceil() as usize).max(cal.settings.tactile.min_frames);
         let wall = Duration::from_secs_f64(duration_s / cal.settings.time_scale.max(1e-3));
         cal.recording = Some(Recording {
-            step,
+            step: step.clone(),
             frames: Vec::with_capacity(wanted),
             wanted,
             deadline: Instant::now() + wall + FRAME_GRACE,
@@ -214,6 +239,7 @@ impl Supervisor {
                     CalibrateStep::TactileLoad {
                         load_per_element_n, ..
                     } => format!("under {load_per_element_n} N per element"),
+                    CalibrateStep::TissueTouch { .. } => String::new(),
                 }
             ),
         );
@@ -319,6 +345,7 @@ impl Supervisor {
             CalibrateStep::TactileLoad {
                 load_per_element_n, ..
             } => self.finish_tactile(r.step, &r.frames, load_per_element_n),
+            CalibrateStep::TissueTouch { .. } => {}
         }
     }
 

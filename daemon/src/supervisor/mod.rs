@@ -13,6 +13,7 @@ mod requests;
 mod search;
 mod search_scene;
 pub mod state;
+mod tissue_touch;
 mod tracking;
 pub mod trial;
 
@@ -148,6 +149,10 @@ enum Purpose {
     /// Coming to rest before a failed recording latches its fault.
     RecordingHold,
     Latch,
+    /// A calibration procedure's own move (the tissue frame's touches).
+    CalibrationMove,
+    /// A tissue frame that passed and is written, handed to the loop.
+    SetPlacement,
 }
 
 /// A motion that stopped short of its target (see `Supervisor::stopped_short`).
@@ -215,6 +220,10 @@ pub struct Supervisor {
     /// (where, and whether a pulse was placed there) for the live map.
     searcher: Option<control::search::Searcher>,
     search_looks: Vec<(SurfacePoint, bool)>,
+    /// The tissue-frame procedure under way (state `calibrating`), and its result waiting
+    /// for the loop to take the new placement.
+    tissue: Option<tissue_touch::TissueTouch>,
+    tissue_result: Option<(Value, config::calibration_file::TissueRecord)>,
     pending: Vec<Pending>,
     timing: Option<PeriodSummary>,
     overruns_reported: u64,
@@ -245,13 +254,10 @@ pub fn state_code(s: OpState) -> u8 {
 }
 
 pub fn state_from_code(c: u8) -> OpState {
-    use OpState::*;
-    [
-        Disabled, Holding, Moving, Seeding, Tracking, Paused, Done, Fault,
-    ]
-    .get(usize::from(c))
-    .copied()
-    .unwrap_or(Disabled)
+    OpState::ALL
+        .get(usize::from(c))
+        .copied()
+        .unwrap_or(OpState::Disabled)
 }
 
 impl Supervisor {
@@ -289,6 +295,8 @@ impl Supervisor {
             approach: ApproachTrail::default(),
             searcher: None,
             search_looks: Vec::new(),
+            tissue: None,
+            tissue_result: None,
             pending: Vec::new(),
             timing: None,
             overruns_reported: 0,
@@ -767,6 +775,10 @@ impl Supervisor {
                     tracing::info!("tracker target refused: {reason}");
                     self.tracker_target_unreachable();
                 }
+                Purpose::CalibrationMove => {
+                    self.tissue_failed(&format!("the loop refused a move: {reason}"))
+                }
+                Purpose::SetPlacement => self.tissue_applied(Some(reason.clone())),
                 Purpose::ShutdownHold => {}
                 _ => {}
             }
@@ -808,7 +820,9 @@ impl Supervisor {
             | Purpose::Debug
             | Purpose::ShutdownHold
             | Purpose::RecordingHold
+            | Purpose::CalibrationMove
             | Purpose::Latch => {}
+            Purpose::SetPlacement => self.tissue_applied(None),
         }
         if let Some((id, to)) = reply {
             let result = match p.purpose {
@@ -832,6 +846,7 @@ impl Supervisor {
         self.log_line(f.t_s, level::ERROR, format!("FAULT latched: {reason}"));
         let dump = self.dump_flight_recorder(&f);
         self.search_abort();
+        self.tissue_failed(&format!("the arm faulted: {reason}"));
         self.end_trial(TrialEnd::Fault);
         self.fault = Some((f, dump.clone()));
         self.set_state(OpState::Fault);

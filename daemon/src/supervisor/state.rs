@@ -6,6 +6,7 @@
 //!                      holding (2 seeds) --track--> tracking <--pause/resume--> paused
 //!                      tracking --finished/stop--> done --move/mark/...--> (as holding)
 //!                      holding (no trial) --search--> searching --found/not found/stop--> holding
+//!                      holding (no trial) --calibrate tissue--> calibrating --fit/stop--> holding
 //! any --fault/estop--> fault --reset--> disabled        enabled states --disable--> disabled
 //! ```
 
@@ -26,6 +27,8 @@ pub enum OpState {
     Seeding,
     /// Finding the artery in a region on its own (a search).
     Searching,
+    /// A calibration procedure moves the arm (the tissue frame's touches).
+    Calibrating,
     /// Following the artery.
     Tracking,
     /// Tracking suspended, holding still.
@@ -37,6 +40,21 @@ pub enum OpState {
 }
 
 impl OpState {
+    /// Every state, in declaration order: `ALL[s as usize] == s` (the console's greeting
+    /// reads the state from its code).
+    pub const ALL: [OpState; 10] = [
+        OpState::Disabled,
+        OpState::Holding,
+        OpState::Moving,
+        OpState::Seeding,
+        OpState::Searching,
+        OpState::Calibrating,
+        OpState::Tracking,
+        OpState::Paused,
+        OpState::Done,
+        OpState::Fault,
+    ];
+
     pub fn as_str(&self) -> &'static str {
         match self {
             OpState::Disabled => "disabled",
@@ -44,6 +62,7 @@ impl OpState {
             OpState::Moving => "moving",
             OpState::Seeding => "seeding",
             OpState::Searching => "searching",
+            OpState::Calibrating => "calibrating",
             OpState::Tracking => "tracking",
             OpState::Paused => "paused",
             OpState::Done => "done",
@@ -88,7 +107,29 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
     if ctx.calibrating && moves_or_marks {
         return refuse("a calibration recording is under way; wait for it or stop it");
     }
+    if state == S::Calibrating && !matches!(verb, Verb::Stop | Verb::Disable) {
+        match verb {
+            Verb::Status | Verb::Subscribe { .. } | Verb::Unsubscribe | Verb::Estop => {}
+            Verb::Debug(_) if ctx.debug_hooks => {}
+            _ => return refuse("a calibration is moving the arm; stop it first"),
+        }
+    }
     match verb {
+        Verb::Calibrate(step) if step.moves_arm() => match state {
+            S::Holding | S::Done if ctx.trial_open => {
+                refuse("a trial is open (a seed is marked); stop it first")
+            }
+            S::Holding | S::Done if ctx.calibrating => {
+                refuse("a calibration recording is under way; wait for it or stop it")
+            }
+            S::Holding | S::Done => Ok(()),
+            S::Disabled => refuse("enable first: the procedure moves the arm"),
+            S::Fault => refuse("a fault is latched; reset first"),
+            S::Moving => refuse("wait for the move to settle"),
+            S::Seeding | S::Tracking | S::Paused => refuse("a trial is running; stop it first"),
+            S::Searching => refuse("a search is running; stop it first"),
+            S::Calibrating => refuse("a calibration is moving the arm; stop it first"),
+        },
         Verb::Calibrate(_) => match state {
             S::Disabled | S::Holding | S::Done if ctx.trial_open => {
                 refuse("a trial is open (a seed is marked); stop it first")
@@ -98,6 +139,7 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
             S::Moving => refuse("wait for the move to settle"),
             S::Seeding | S::Tracking | S::Paused => refuse("a trial is running; stop it first"),
             S::Searching => refuse("a search is running; stop it first"),
+            S::Calibrating => refuse("a calibration is moving the arm; stop it first"),
         },
         Verb::Search { .. } => match state {
             S::Holding | S::Done if ctx.trial_open => {
@@ -109,6 +151,7 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
             S::Moving => refuse("wait for the move to settle"),
             S::Seeding | S::Tracking | S::Paused => refuse("a trial is running; stop it first"),
             S::Searching => refuse("already searching"),
+            S::Calibrating => refuse("a calibration is moving the arm; stop it first"),
         },
         Verb::Status | Verb::Subscribe { .. } | Verb::Unsubscribe | Verb::Estop => Ok(()),
         Verb::Debug(_) => {
@@ -136,6 +179,7 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
             S::Seeding => refuse("a mark is acquiring; wait for it or stop"),
             S::Tracking | S::Paused => refuse("a track is running; stop it first"),
             S::Searching => refuse("a search is running; stop it first"),
+            S::Calibrating => refuse("a calibration is moving the arm; stop it first"),
         },
         Verb::Mark => match state {
             S::Holding | S::Done => {
@@ -151,6 +195,7 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
             S::Seeding => refuse("a mark is already acquiring"),
             S::Tracking | S::Paused => refuse("a track is running"),
             S::Searching => refuse("a search is running; stop it first"),
+            S::Calibrating => refuse("a calibration is moving the arm; stop it first"),
         },
         Verb::Track { .. } => match state {
             S::Holding => {
@@ -173,6 +218,7 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
             S::Searching => {
                 refuse("a search is running; it seeds no tracker itself (docs/search.md)")
             }
+            S::Calibrating => refuse("a calibration is moving the arm; stop it first"),
         },
         Verb::Pause => match state {
             S::Tracking => Ok(()),
@@ -185,7 +231,9 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
         },
         Verb::Stop => match state {
             _ if ctx.calibrating && state != S::Fault => Ok(()),
-            S::Moving | S::Seeding | S::Searching | S::Tracking | S::Paused => Ok(()),
+            S::Moving | S::Seeding | S::Searching | S::Calibrating | S::Tracking | S::Paused => {
+                Ok(())
+            }
             S::Holding | S::Done => refuse("nothing is moving"),
             S::Disabled => refuse("power is off"),
             S::Fault => refuse("a fault is latched; power is already off"),
@@ -201,17 +249,15 @@ pub fn admit(state: OpState, verb: &Verb, ctx: &Context) -> Result<(), String> {
 mod tests {
     use super::*;
 
-    const ALL: [OpState; 9] = [
-        OpState::Disabled,
-        OpState::Holding,
-        OpState::Moving,
-        OpState::Seeding,
-        OpState::Searching,
-        OpState::Tracking,
-        OpState::Paused,
-        OpState::Done,
-        OpState::Fault,
-    ];
+    const ALL: [OpState; 10] = OpState::ALL;
+
+    #[test]
+    fn each_state_is_read_back_from_its_code() {
+        for s in ALL {
+            assert_eq!(crate::supervisor::state_from_code(s as u8), s, "{s:?}");
+        }
+        assert_eq!(crate::supervisor::state_from_code(200), OpState::Disabled);
+    }
 
     fn ctx(seeds: usize) -> Context {
         Context {

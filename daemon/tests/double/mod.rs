@@ -152,6 +152,7 @@ impl Servo for FakeServo {
         Ok(SensorPose {
             centre: SurfacePoint::new(q[0], q[1]),
             depth_m: q[2],
+            height_m: 0.0,
         })
     }
     fn sensor_felt(&self, _q: &Joints, _torque: &Joints) -> Option<SurfacePoint> {

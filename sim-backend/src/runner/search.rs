@@ -48,7 +48,13 @@ pub fn run_search(
     params: SearchParams,
     seed: u64,
 ) -> Result<SearchTrial, SimError> {
-    let mut l = Lockstep::new(scene, config, "beatslide", seed, None)?;
+    let mut l = Lockstep::new(
+        scene,
+        config,
+        "beatslide",
+        seed,
+        &super::Calibrated::default(),
+    )?;
     let mut searcher = Searcher::new(params, config.sensor, region, method)
         .map_err(|e| SimError::Config(format!("search: {e}")))?;
     l.bench.set_enabled(true);

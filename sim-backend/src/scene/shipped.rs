@@ -47,6 +47,10 @@ pub const SHIPPED: &[(&str, &str)] = &[
         include_str!("../../../config/scenes/sensor-errors-arc-145.ron"),
     ),
     (
+        "tissue-misplaced-arc-145.ron",
+        include_str!("../../../config/scenes/tissue-misplaced-arc-145.ron"),
+    ),
+    (
         "tight-arc-20.ron",
         include_str!("../../../config/scenes/tight-arc-20.ron"),
     ),
@@ -100,6 +104,7 @@ const NAMES: &[&str] = &[
     "robust-noise-doubled.ron",
     "robust-occlusion.ron",
     "sensor-errors-arc-145.ron",
+    "tissue-misplaced-arc-145.ron",
     "tight-arc-20.ron",
     "tight-arc-30.ron",
     "tight-arc-40.ron",
