@@ -334,3 +334,56 @@ fn print_verdict(e: &Value) {
         );
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(subcommand)]
+        procedure: Procedure,
+    }
+
+    #[test]
+    fn the_tissue_points_are_read_in_millimetres_and_sent_in_metres() {
+        let cli = Cli::try_parse_from([
+            "calibrate",
+            "tissue",
+            "--point=-80,45",
+            "--point",
+            "80, 45",
+            "--point=0,-10.5",
+            "--course=-110,36.9,115,17.2",
+            "--course-lateral-mm",
+            "27.2",
+        ])
+        .expect("parses");
+        let (_, req) = request(&cli.procedure);
+        assert_eq!(req["procedure"], "tissue");
+        assert_eq!(
+            req["points_m"],
+            json!([[-0.08, 0.045], [0.08, 0.045], [0.0, -0.0105]])
+        );
+        assert_eq!(req["course_m"], json!([[-0.11, 0.0369], [0.115, 0.0172]]));
+        assert!((req["course_lateral_m"].as_f64().expect("lateral") - 0.0272).abs() < 1e-15);
+    }
+
+    #[test]
+    fn bad_tissue_flags_are_refused_naming_the_flag() {
+        for (args, why) in [
+            (vec!["calibrate", "tissue"], "--point"),
+            (vec!["calibrate", "tissue", "--point=1"], "--point"),
+            (vec!["calibrate", "tissue", "--point=1,x"], "z = \"x\""),
+            (vec!["calibrate", "tissue", "--point=1,2", "--course=1,2,3"], "--course"),
+            (
+                vec!["calibrate", "tissue", "--point=1,2", "--course-lateral-mm", "3"],
+                "--course",
+            ),
+        ] {
+            let e = Cli::try_parse_from(&args).expect_err("refused").to_string();
+            assert!(e.contains(why), "{args:?}: {e}");
+        }
+    }
+}

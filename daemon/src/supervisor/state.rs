@@ -318,11 +318,20 @@ mod tests {
         assert_eq!(accepted(&Verb::Resume, 2), vec![Paused]);
         assert_eq!(
             accepted(&Verb::Stop, 2),
-            vec![Moving, Seeding, Searching, Tracking, Paused]
+            vec![Moving, Seeding, Searching, Calibrating, Tracking, Paused]
         );
         assert_eq!(
             accepted(&Verb::Disable, 0),
-            vec![Holding, Moving, Seeding, Searching, Tracking, Paused, Done]
+            vec![
+                Holding,
+                Moving,
+                Seeding,
+                Searching,
+                Calibrating,
+                Tracking,
+                Paused,
+                Done
+            ]
         );
         let search = Verb::Search {
             region: control::search::Region::square(
@@ -359,6 +368,55 @@ mod tests {
             search.clone(),
         ] {
             assert!(admit(Searching, &verb, &ctx(0)).is_err(), "{verb:?}");
+        }
+    }
+
+    #[test]
+    fn a_tissue_calibration_moves_the_arm_alone_and_only_from_rest_outside_a_trial() {
+        use crate::console::protocol::CalibrateStep;
+        use OpState::*;
+        let touch = Verb::Calibrate(CalibrateStep::TissueTouch {
+            points: vec![control::frames::SurfacePoint::new(0.0, 0.0); 3],
+            course: None,
+            course_lateral_m: 0.0,
+        });
+        assert_eq!(accepted(&touch, 0), vec![Holding, Done]);
+        let open = Context {
+            trial_open: true,
+            ..ctx(1)
+        };
+        assert!(ALL.iter().all(|s| admit(*s, &touch, &open).is_err()));
+        let recording = Context {
+            calibrating: true,
+            ..ctx(0)
+        };
+        assert!(ALL.iter().all(|s| admit(*s, &touch, &recording).is_err()));
+        let r = admit(Disabled, &touch, &ctx(0)).expect_err("unpowered");
+        assert!(r.contains("enable first"), "{r}");
+        // While it runs only stop, disable, estop and the read-only verbs pass.
+        for verb in [
+            Verb::Mark,
+            Verb::Home,
+            Verb::Move {
+                x_m: 0.0,
+                z_m: 0.0,
+                speed_m_s: None,
+            },
+            Verb::Jog {
+                dx_m: 0.001,
+                dz_m: 0.0,
+            },
+            Verb::Pause,
+            Verb::Resume,
+            Verb::Reset,
+            Verb::Enable,
+            touch.clone(),
+        ] {
+            let r = admit(Calibrating, &verb, &ctx(0)).expect_err("busy");
+            assert!(r.contains("while calibrating"), "{verb:?}: {r}");
+        }
+        for verb in [Verb::Stop, Verb::Disable, Verb::Estop, Verb::Status] {
+            assert!(admit(Calibrating, &verb, &ctx(0)).is_ok(), "{verb:?}");
         }
     }
 
