@@ -141,13 +141,19 @@ fn the_tissue_frame_is_found_by_touch_written_used_and_loaded_again() {
     assert_eq!(done["passed"], true, "{done}");
     assert_eq!(done["applied"], true, "{done}");
     let yaw_error = num(&done["placement"]["yaw_rad"]) - TRUE_YAW_RAD;
-    assert!(yaw_error.abs() < 0.2f64.to_radians(), "yaw off by {yaw_error} rad: {done}");
+    assert!(
+        yaw_error.abs() < 0.2f64.to_radians(),
+        "yaw off by {yaw_error} rad: {done}"
+    );
     let change = &done["origin_change_m"];
     // The knee of the summed force sits 0.9 mm below where the simulator's foam starts
     // (docs/rig-bring-up.md): the height is found within 1.2 mm, the yaw and the
     // horizontal origin far closer.
     assert!((num(&change[1]) - TRUE_RISE_M).abs() < 1.2e-3, "{done}");
-    assert!(num(&change[0]).abs() < 0.5e-3 && num(&change[2]).abs() < 0.5e-3, "{done}");
+    assert!(
+        num(&change[0]).abs() < 0.5e-3 && num(&change[2]).abs() < 0.5e-3,
+        "{done}"
+    );
     assert!(num(&done["rms_residual_m"]) < 0.2e-3, "{done}");
 
     // On disk before it was announced, in the status, and in the kinematics: the sensor
@@ -269,7 +275,10 @@ fn a_full_disk_leaves_the_old_tissue_frame_in_place_and_in_use() {
         ),
         &format!("{:?}", disk.join("calibration.ron").display().to_string()),
     );
-    assert_ne!(text, moved, "the calibration file moved onto the small disk");
+    assert_ne!(
+        text, moved,
+        "the calibration file moved onto the small disk"
+    );
     std::fs::write(&config, moved).expect("write");
     let (daemon, mut c) = start_with_config(dir.path(), config);
     call(

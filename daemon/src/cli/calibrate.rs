@@ -376,9 +376,18 @@ mod tests {
             (vec!["calibrate", "tissue"], "--point"),
             (vec!["calibrate", "tissue", "--point=1"], "--point"),
             (vec!["calibrate", "tissue", "--point=1,x"], "z = \"x\""),
-            (vec!["calibrate", "tissue", "--point=1,2", "--course=1,2,3"], "--course"),
             (
-                vec!["calibrate", "tissue", "--point=1,2", "--course-lateral-mm", "3"],
+                vec!["calibrate", "tissue", "--point=1,2", "--course=1,2,3"],
+                "--course",
+            ),
+            (
+                vec![
+                    "calibrate",
+                    "tissue",
+                    "--point=1,2",
+                    "--course-lateral-mm",
+                    "3",
+                ],
                 "--course",
             ),
         ] {

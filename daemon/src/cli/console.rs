@@ -354,6 +354,20 @@ fn print_status(r: &Value) {
     } else if r["calibration"].is_object() {
         outln!("calibrated (none: the tactile array is read as configured)");
     }
+    let tissue = &r["calibration"]["tissue"];
+    if tissue.is_object() {
+        let p = &tissue["placement"];
+        let o = |i: usize| p["origin_in_base_m"][i].as_f64().unwrap_or(f64::NAN) * 1e3;
+        outln!(
+            "calibrated tissue frame of {}: yaw {:.3} deg, origin ({:.2}, {:.2}, {:.2}) mm, plane residual {:.3} mm",
+            tissue["measured_utc"].as_str().unwrap_or("?"),
+            p["yaw_rad"].as_f64().unwrap_or(f64::NAN).to_degrees(),
+            o(0),
+            o(1),
+            o(2),
+            tissue["rms_residual_m"].as_f64().unwrap_or(f64::NAN) * 1e3
+        );
+    }
     let t = &r["tactile"];
     outln!(
         "tactile    {} frames, newest {} s old, contact {} N",
