@@ -145,8 +145,11 @@ pub fn either(mm: Option<Metres>, m: Option<Metres>) -> Option<f64> {
 pub fn mm_tuple<const N: usize>(flag: &str, names: [&str; N], s: &str) -> Result<[f64; N], String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     if parts.len() != N {
+        let count = ["no", "one", "two", "three", "four", "five", "six"]
+            .get(N)
+            .map_or_else(|| N.to_string(), |w| (*w).to_string());
         return Err(format!(
-            "{flag} {s:?}: give {N} numbers in mm, {} (got {})",
+            "{flag} {s:?}: give {count} numbers in mm, {} (got {})",
             names.join(","),
             parts.len()
         ));

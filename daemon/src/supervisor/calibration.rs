@@ -402,6 +402,18 @@ impl Supervisor {
 
     /// Write `record` into the calibration file (keeping what else it holds).
     fn save_tactile(&self, record: &TactileRecord) -> Result<(), String> {
+        self.save_calibration("the calibration in use", |f| {
+            f.tactile = Some(record.clone())
+        })
+    }
+
+    /// Rewrite the calibration file with `put`'s change, keeping what else it holds; on
+    /// failure the error says that `in_use` is unchanged.
+    pub(super) fn save_calibration(
+        &self,
+        in_use: &str,
+        put: impl FnOnce(&mut CalibrationFile),
+    ) -> Result<(), String> {
         let path = &self.calibration.settings.file;
         let mut file = match calibration_file::load(path) {
             Ok(Some(l)) => l.value,
@@ -410,8 +422,8 @@ impl Supervisor {
             // person may want to look at.
             Err(e) => return Err(format!("not written: the file there cannot be read: {e}")),
         };
-        file.tactile = Some(record.clone());
+        put(&mut file);
         calibration_file::save(path, &file)
-            .map_err(|e| format!("not applied: {e} (the calibration in use is unchanged)"))
+            .map_err(|e| format!("not applied: {e} ({in_use} is unchanged)"))
     }
 }

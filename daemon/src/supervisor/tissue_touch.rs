@@ -11,7 +11,7 @@ use std::time::SystemTime;
 use nalgebra::Point3;
 use serde_json::{Value, json};
 
-use config::calibration_file::{self, CalibrationFile, CheckRecord, TissueRecord};
+use config::calibration_file::{CheckRecord, TissueRecord};
 use control::calibration::{
     ArteryCourse, SurfaceTouch, TissueFit, TouchSettings, all_passed, fit_tissue_frame,
 };
@@ -363,15 +363,9 @@ impl Supervisor {
 
     /// Write `record` into the calibration file (keeping what else it holds).
     fn save_tissue(&self, record: &TissueRecord) -> Result<(), String> {
-        let path = &self.calibration.settings.file;
-        let mut file = match calibration_file::load(path) {
-            Ok(Some(l)) => l.value,
-            Ok(None) => CalibrationFile::default(),
-            Err(e) => return Err(format!("not written: the file there cannot be read: {e}")),
-        };
-        file.tissue = Some(record.clone());
-        calibration_file::save(path, &file)
-            .map_err(|e| format!("not applied: {e} (the tissue frame in use is unchanged)"))
+        self.save_calibration("the tissue frame in use", |f| {
+            f.tissue = Some(record.clone())
+        })
     }
 }
 
