@@ -7,6 +7,7 @@
 //! the calibration file and the daemon's verbs are not here (docs/calibration.md, "Rig
 //! calibration").
 
+pub mod level_pivot;
 pub mod pivot;
 pub mod tactile;
 mod tactile_applied;
@@ -17,6 +18,7 @@ pub mod touch;
 #[cfg(test)]
 mod kinematics_tests;
 
+pub use level_pivot::{LevelPivotError, LevelPivotFit, fit_pivot_level};
 pub use pivot::{PivotFit, PivotFitError, RodLine, fit_pivot};
 pub use tactile::{
     ElementCalibration, ElementStatus, Recording, TactileCalibration, TactileCalibrationError,

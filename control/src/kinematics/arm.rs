@@ -114,6 +114,18 @@ impl ArmModel {
         })
     }
 
+    /// The same arm with its pivot elsewhere (a pivot calibration).
+    pub fn with_pivot(&self, pivot: PivotGeometry) -> Result<Self, KinematicsError> {
+        let offset = self.sensor_offset_m;
+        Self::new(
+            self.phantom,
+            self.limits,
+            pivot,
+            self.placement,
+            [offset.x, offset.y, offset.z],
+        )
+    }
+
     /// The same arm over a tissue frame placed elsewhere (a tissue-frame calibration).
     pub fn with_placement(&self, placement: TissuePlacement) -> Result<Self, KinematicsError> {
         let offset = self.sensor_offset_m;

@@ -23,6 +23,10 @@ pub const SHIPPED: &[(&str, &str)] = &[
         include_str!("../../../config/scenes/seed-radial-wrist.ron"),
     ),
     (
+        "pivot-off-arc-145.ron",
+        include_str!("../../../config/scenes/pivot-off-arc-145.ron"),
+    ),
+    (
         "robust-heart-rate.ron",
         include_str!("../../../config/scenes/robust-heart-rate.ron"),
     ),
@@ -98,6 +102,7 @@ const NAMES: &[&str] = &[
     "seed-arc-145.ron",
     "seed-arc-220.ron",
     "seed-radial-wrist.ron",
+    "pivot-off-arc-145.ron",
     "robust-heart-rate.ron",
     "robust-irregular-beats.ron",
     "robust-lumps.ron",
