@@ -120,16 +120,21 @@ pub struct Touch {
     pub samples: usize,
     pub baseline_n: f64,
     pub baseline_sd_n: f64,
+    /// The sensor's height while the baseline was taken, m (median): a surface met less
+    /// than a millimetre below it was touched at rest already.
+    pub rest_height_m: f64,
 }
 
 #[derive(Debug, Clone, PartialEq)]
 enum Phase {
     /// Frames still to skip before the baseline.
     Settling(usize),
-    Baseline(Vec<f64>),
+    /// Forces and heights at rest.
+    Baseline(Vec<f64>, Vec<f64>),
     Descending {
         baseline_n: f64,
         baseline_sd_n: f64,
+        rest_height_m: f64,
         stop_n: f64,
         /// Every frame of the descent: height, force above the baseline.
         samples: Vec<(f64, f64)>,
@@ -157,7 +162,7 @@ impl SurfaceTouch {
 
     /// The baseline is recorded: the sensor may start down.
     pub fn ready(&self) -> bool {
-        !matches!(self.phase, Phase::Settling(_) | Phase::Baseline(_))
+        !matches!(self.phase, Phase::Settling(_) | Phase::Baseline(..))
     }
 
     /// The baseline's noise SD, N, once there is a baseline.
@@ -185,20 +190,24 @@ impl SurfaceTouch {
         match &mut self.phase {
             Phase::Settling(left) => {
                 if *left <= 1 {
-                    self.phase = Phase::Baseline(Vec::with_capacity(self.settings.baseline_frames));
+                    let n = self.settings.baseline_frames;
+                    self.phase = Phase::Baseline(Vec::with_capacity(n), Vec::with_capacity(n));
                 } else {
                     *left -= 1;
                 }
                 None
             }
-            Phase::Baseline(forces) => {
+            Phase::Baseline(forces, heights) => {
                 forces.push(force_n);
+                heights.push(height_m);
                 if forces.len() >= self.settings.baseline_frames {
                     let (median, sd) = median_sd(forces);
+                    let rest_height_m = median_sd(heights).0;
                     let start_n = self.settings.start_n.max(4.0 * sd);
                     self.phase = Phase::Descending {
                         baseline_n: median,
                         baseline_sd_n: sd,
+                        rest_height_m,
                         stop_n: self.settings.stop_n.max(6.0 * sd).max(2.0 * start_n),
                         samples: Vec::new(),
                         most_n: f64::NEG_INFINITY,
@@ -235,6 +244,7 @@ impl SurfaceTouch {
         let Phase::Descending {
             baseline_n,
             baseline_sd_n,
+            rest_height_m,
             samples,
             most_n,
             lowest_m,
@@ -255,7 +265,7 @@ impl SurfaceTouch {
                 lowest_m,
             });
         }
-        fit_hinge(&samples, baseline_n, baseline_sd_n)
+        fit_hinge(&samples, baseline_n, baseline_sd_n).map(|t| Touch { rest_height_m, ..t })
     }
 }
 
@@ -314,6 +324,7 @@ fn fit_hinge(
             samples: below,
             baseline_n,
             baseline_sd_n,
+            rest_height_m: f64::NAN,
         }),
         None => Err(TouchError::NotASurface {
             slope_n_per_m: best_slope,

@@ -38,6 +38,8 @@ fn the_surface_is_the_knee_of_the_force_not_where_it_crossed_a_threshold() {
     );
     assert!((touch.stiffness_n_per_m - 200.0).abs() < 40.0, "{touch:?}");
     assert!((touch.baseline_n - 0.4).abs() < 0.02, "{touch:?}");
+    // Where it rested, 8 mm above the surface: what tells a real fall from a touch at rest.
+    assert!((touch.rest_height_m - 0.0092).abs() < 1e-12, "{touch:?}");
 }
 
 #[test]

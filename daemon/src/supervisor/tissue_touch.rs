@@ -448,9 +448,13 @@ fn tissue_step(p: &mut TissueTouch, f: &StampedFrame, force_n: f64, settled: boo
             };
             let index = p.next;
             match result {
-                Ok(touch) if touch.surface_height_m > p.settings.clearance_m - MIN_FALL_M => {
+                Ok(touch)
+                    if touch.rest_height_m.is_nan()
+                        || touch.surface_height_m >= touch.rest_height_m - MIN_FALL_M =>
+                {
                     Step::Fail(format!(
-                        "point {index}: the force rose from where the sensor rested, {:.1} mm above the configured surface: it was already touching; raise calibration.tissue.clearance_m",
+                        "point {index}: the sensor was on the tissue already while it rested, {:+.2} mm from the configured surface instead of {:+.1} mm above it: the arm could not lift it clear (an added mass the drive does not carry? take it off for the procedure), or the surface is higher than calibration.tissue.clearance_m",
+                        touch.rest_height_m * 1e3,
                         p.settings.clearance_m * 1e3
                     ))
                 }

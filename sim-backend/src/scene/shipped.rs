@@ -55,6 +55,10 @@ pub const SHIPPED: &[(&str, &str)] = &[
         include_str!("../../../config/scenes/tissue-misplaced-arc-145.ron"),
     ),
     (
+        "tissue-misplaced-arc-145-unweighted.ron",
+        include_str!("../../../config/scenes/tissue-misplaced-arc-145-unweighted.ron"),
+    ),
+    (
         "tight-arc-20.ron",
         include_str!("../../../config/scenes/tight-arc-20.ron"),
     ),
@@ -110,6 +114,7 @@ const NAMES: &[&str] = &[
     "robust-occlusion.ron",
     "sensor-errors-arc-145.ron",
     "tissue-misplaced-arc-145.ron",
+    "tissue-misplaced-arc-145-unweighted.ron",
     "tight-arc-20.ron",
     "tight-arc-30.ron",
     "tight-arc-40.ron",
