@@ -10,9 +10,7 @@ mod e2e;
 use std::path::Path;
 use std::time::Duration;
 
-use e2e::{
-    Setup, SmallDisk, T, call, seed, start, start_with_config, track_to_recording, wait_event,
-};
+use e2e::{Setup, T, call, seed, start, start_with_config, track_to_recording, wait_event};
 use serde_json::{Value, json};
 
 const SCENE_GAINS: [f64; 10] = [1.13, 0.84, 1.19, 0.92, 1.06, 0.81, 1.0, 1.17, 0.88, 0.97];
@@ -278,40 +276,17 @@ fn a_recording_can_be_stopped_and_never_hangs() {
 /// applied, and the old calibration stays on disk, whole, and in use.
 #[test]
 fn a_full_disk_leaves_the_old_calibration_in_place_and_in_use() {
-    if !nix::unistd::geteuid().is_root() {
-        eprintln!("skipped: mounting a tmpfs needs root");
-        return;
-    }
     let dir = tempfile::tempdir().expect("tmp");
-    let disk = dir.path().join("disk");
-    let Some(_small) = SmallDisk::mount(&disk, 64 * 1024) else {
-        eprintln!("skipped: cannot mount a tmpfs here");
+    let Some((config, small, path)) =
+        e2e::config_with_calibration_on_small_disk(dir.path(), &setup())
+    else {
         return;
     };
-    let config = e2e::write_config(dir.path(), &setup());
-    let text = std::fs::read_to_string(&config).expect("config");
-    let moved = text.replace(
-        &format!(
-            "{:?}",
-            dir.path().join("calibration.ron").display().to_string()
-        ),
-        &format!("{:?}", disk.join("calibration.ron").display().to_string()),
-    );
-    assert_ne!(
-        text, moved,
-        "the harness's calibration file moved onto the small disk"
-    );
-    std::fs::write(&config, moved).expect("write");
     let (daemon, mut c) = start_with_config(dir.path(), config);
     let first = calibrate(&mut c);
     assert_eq!(first["applied"], true, "{first}");
-    let path = disk.join("calibration.ron");
     let before = std::fs::read(&path).expect("written");
-    let mut f = std::fs::File::create(disk.join("filler")).expect("filler");
-    let block = vec![0u8; 4096];
-    use std::io::Write;
-    while f.write_all(&block).is_ok() {}
-    drop(f);
+    small.fill();
     let second = calibrate(&mut c);
     // Two recordings of fresh noise: their measured noise differs, which tells them apart.
     assert_ne!(first["noise_sd_n"], second["noise_sd_n"]);

@@ -10,7 +10,7 @@
 
 mod e2e;
 
-use e2e::{Setup, SmallDisk, T, call, start, start_with_config, wait_event};
+use e2e::{Setup, T, call, start, start_with_config, wait_event};
 use serde_json::{Value, json};
 
 const SCENE: &str = "tissue-misplaced-arc-145-unweighted.ron";
@@ -255,30 +255,12 @@ fn the_tissue_frame_is_found_by_touch_written_used_and_loaded_again() {
 /// applied, the old file stays whole and the old frame stays in use.
 #[test]
 fn a_full_disk_leaves_the_old_tissue_frame_in_place_and_in_use() {
-    if !nix::unistd::geteuid().is_root() {
-        eprintln!("skipped: mounting a tmpfs needs root");
-        return;
-    }
     let dir = tempfile::tempdir().expect("tmp");
-    let disk = dir.path().join("disk");
-    let Some(_small) = SmallDisk::mount(&disk, 64 * 1024) else {
-        eprintln!("skipped: cannot mount a tmpfs here");
+    let Some((config, small, path)) =
+        e2e::config_with_calibration_on_small_disk(dir.path(), &setup())
+    else {
         return;
     };
-    let config = e2e::write_config(dir.path(), &setup());
-    let text = std::fs::read_to_string(&config).expect("config");
-    let moved = text.replace(
-        &format!(
-            "{:?}",
-            dir.path().join("calibration.ron").display().to_string()
-        ),
-        &format!("{:?}", disk.join("calibration.ron").display().to_string()),
-    );
-    assert_ne!(
-        text, moved,
-        "the calibration file moved onto the small disk"
-    );
-    std::fs::write(&config, moved).expect("write");
     let (daemon, mut c) = start_with_config(dir.path(), config);
     call(
         &mut c,
@@ -288,13 +270,8 @@ fn a_full_disk_leaves_the_old_tissue_frame_in_place_and_in_use() {
     call(&mut c, "enable", json!({}));
     let first = run(&mut c, json!({"procedure": "tissue", "points_m": PATCH_M}));
     assert_eq!(first["applied"], true, "{first}");
-    let path = disk.join("calibration.ron");
     let before = std::fs::read(&path).expect("written");
-    let mut f = std::fs::File::create(disk.join("filler")).expect("filler");
-    let block = vec![0u8; 4096];
-    use std::io::Write;
-    while f.write_all(&block).is_ok() {}
-    drop(f);
+    small.fill();
     let second = run(&mut c, json!({"procedure": "tissue", "points_m": PATCH_M}));
     assert_eq!(second["passed"], true, "{second}");
     assert_eq!(second["applied"], false, "{second}");

@@ -381,36 +381,16 @@ impl ControlLoop {
                 seq,
                 target,
                 speed_m_s,
-            } => {
-                if self.status.mode != LoopMode::Enabled {
-                    Err(Refusal::NotEnabled)
-                } else if !self.limits.in_workspace(target.x_m, target.z_m) {
-                    Err(Refusal::Unreachable(FaultKind::Workspace))
-                } else {
-                    self.servo.move_to(now, target, speed_m_s).map(|()| {
-                        self.status.motion_seq = seq;
-                        self.status.settled = false;
-                        self.status.shortfall = None;
-                    })
-                }
-            }
+            } => self.start_motion(seq, target.x_m, target.z_m, |s| {
+                s.move_to(now, target, speed_m_s)
+            }),
             ControlCommand::MoveToPoint {
                 seq,
                 target,
                 speed_m_s,
-            } => {
-                if self.status.mode != LoopMode::Enabled {
-                    Err(Refusal::NotEnabled)
-                } else if !self.limits.in_workspace(target.x, target.z) {
-                    Err(Refusal::Unreachable(FaultKind::Workspace))
-                } else {
-                    self.servo.move_to_point(now, target, speed_m_s).map(|()| {
-                        self.status.motion_seq = seq;
-                        self.status.settled = false;
-                        self.status.shortfall = None;
-                    })
-                }
-            }
+            } => self.start_motion(seq, target.x, target.z, |s| {
+                s.move_to_point(now, target, speed_m_s)
+            }),
             ControlCommand::SetPlacement { seq, placement } => {
                 let powered = self.status.mode == LoopMode::Enabled;
                 let state = if powered { joints } else { None };
@@ -440,6 +420,28 @@ impl ControlLoop {
             Err(why) => ControlEvent::Refused { seq, t_s: now, why },
         };
         self.send_event(event);
+    }
+
+    /// A move to a target at (`x_m`, `z_m`) over the surface: refused unpowered or outside the
+    /// workspace, else started by `start` and made the motion the loop reports on.
+    fn start_motion(
+        &mut self,
+        seq: u64,
+        x_m: f64,
+        z_m: f64,
+        start: impl FnOnce(&mut dyn Servo) -> Result<(), Refusal>,
+    ) -> Result<(), Refusal> {
+        if self.status.mode != LoopMode::Enabled {
+            return Err(Refusal::NotEnabled);
+        }
+        if !self.limits.in_workspace(x_m, z_m) {
+            return Err(Refusal::Unreachable(FaultKind::Workspace));
+        }
+        start(self.servo.as_mut())?;
+        self.status.motion_seq = seq;
+        self.status.settled = false;
+        self.status.shortfall = None;
+        Ok(())
     }
 
     fn enable(&mut self, now: f64, joints: Option<&JointState>) -> Result<(), Refusal> {

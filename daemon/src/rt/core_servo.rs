@@ -188,21 +188,8 @@ impl Servo for CoreServo {
     }
 
     fn move_to(&mut self, now_s: f64, target: SurfacePoint, speed_m_s: f64) -> Result<(), Refusal> {
-        let Some(from) = self.setpoint_point(now_s) else {
-            return Err(Refusal::NotEnabled);
-        };
         let end = self.planner.contact_point(&target);
-        // The end must be reachable with every guard; so must the middle of the line (the
-        // workspace is convex enough that this catches a line through the pivot's cone).
-        let mid = Point3::from((from.coords + end.coords) / 2.0);
-        for p in [end, mid] {
-            if let Err(e) = self.arm.joints_for_sensor(&p) {
-                return Err(Refusal::Unreachable(kinematic_fault(&e, now_s).kind));
-            }
-        }
-        self.planner
-            .start_from_point(from, target, speed_m_s, now_s)
-            .map_err(|_| Refusal::Unreachable(FaultKind::NonFiniteCommand))
+        self.move_to_point(now_s, end, speed_m_s)
     }
 
     fn move_to_point(
@@ -214,6 +201,8 @@ impl Servo for CoreServo {
         let Some(from) = self.setpoint_point(now_s) else {
             return Err(Refusal::NotEnabled);
         };
+        // The end must be reachable with every guard; so must the middle of the line (the
+        // workspace is convex enough that this catches a line through the pivot's cone).
         let mid = Point3::from((from.coords + target.coords) / 2.0);
         for p in [target, mid] {
             if let Err(e) = self.arm.joints_for_sensor(&p) {

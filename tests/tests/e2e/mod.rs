@@ -330,6 +330,14 @@ impl SmallDisk {
         })
     }
 
+    /// Fill what is left of the disk with a file of zeros.
+    pub fn fill(&self) {
+        use std::io::Write;
+        let mut f = std::fs::File::create(self.at.join("filler")).expect("filler");
+        let block = vec![0u8; 4096];
+        while f.write_all(&block).is_ok() {}
+    }
+
     pub fn remount_read_only(&self) {
         let s = Command::new("mount")
             .args(["-o", "remount,ro"])
@@ -344,4 +352,34 @@ impl Drop for SmallDisk {
     fn drop(&mut self) {
         let _ = Command::new("umount").arg("-l").arg(&self.at).status();
     }
+}
+
+/// A daemon config for `setup` whose calibration file lies on a 64 KiB tmpfs under `dir`, the
+/// disk, and the file's path; `None` (saying why on stderr) where no tmpfs can be mounted.
+pub fn config_with_calibration_on_small_disk(
+    dir: &Path,
+    setup: &Setup,
+) -> Option<(PathBuf, SmallDisk, PathBuf)> {
+    if !nix::unistd::geteuid().is_root() {
+        eprintln!("skipped: mounting a tmpfs needs root");
+        return None;
+    }
+    let disk = dir.join("disk");
+    let Some(small) = SmallDisk::mount(&disk, 64 * 1024) else {
+        eprintln!("skipped: cannot mount a tmpfs here");
+        return None;
+    };
+    let config = write_config(dir, setup);
+    let text = std::fs::read_to_string(&config).expect("config");
+    let file = disk.join("calibration.ron");
+    let moved = text.replace(
+        &format!("{:?}", dir.join("calibration.ron").display().to_string()),
+        &format!("{:?}", file.display().to_string()),
+    );
+    assert_ne!(
+        text, moved,
+        "the calibration file moved onto the small disk"
+    );
+    std::fs::write(&config, moved).expect("write");
+    Some((config, small, file))
 }
