@@ -241,22 +241,18 @@ fn calibration_at_start(
         .unwrap_or_default();
     let tissue = match file.tissue {
         None => None,
-        Some(r) if r.passed => {
+        Some(r) => {
+            let p = crate::supervisor::calibration::usable_tissue(&r).map_err(|e| {
+                StartError::Control(format!("calibration file {}: {e}", settings.file.display()))
+            })?;
             tracing::info!(
                 "tissue frame of {} from {} in use: origin {:?} m, yaw {:.3} deg",
                 r.measured_utc,
                 settings.file.display(),
-                r.placement.origin_in_base_m,
-                r.placement.yaw_rad.to_degrees()
+                p.origin_in_base_m,
+                p.yaw_rad.to_degrees()
             );
             Some(r)
-        }
-        Some(r) => {
-            return Err(StartError::Control(format!(
-                "calibration file {}: its tissue frame of {} did not pass its checks",
-                settings.file.display(),
-                r.measured_utc
-            )));
         }
     };
     let tactile = match file.tactile {

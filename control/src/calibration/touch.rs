@@ -173,14 +173,6 @@ impl SurfaceTouch {
         }
     }
 
-    /// The force above the baseline, once there is a baseline.
-    pub fn excess_n(&self, force_n: f64) -> Option<f64> {
-        match &self.phase {
-            Phase::Descending { baseline_n, .. } => Some(force_n - baseline_n),
-            _ => None,
-        }
-    }
-
     /// One frame. `Some` once, when the touch is found or cannot be.
     pub fn push(&mut self, height_m: f64, force_n: f64) -> Option<Result<Touch, TouchError>> {
         if !(height_m.is_finite() && force_n.is_finite()) {

@@ -86,17 +86,11 @@ fn file_calibration(
         ),
         None => None,
     };
-    let tissue = match file.tissue {
-        Some(r) if r.passed => Some(r.placement),
-        Some(r) => {
-            return Err(format!(
-                "{}: its tissue frame of {} did not pass its checks",
-                path.display(),
-                r.measured_utc
-            ));
-        }
-        None => None,
-    };
+    let tissue = file
+        .tissue
+        .map(|r| crate::supervisor::calibration::usable_tissue(&r))
+        .transpose()
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(sim::runner::Calibrated { tactile, tissue })
 }
 

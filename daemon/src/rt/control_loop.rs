@@ -237,12 +237,17 @@ impl ControlLoop {
         safety::check_joint_data(&self.limits, now, &state).map_err(JointsProblem::Data)?;
         self.status.position_rad = state.position_rad;
         self.status.velocity_rad_s = state.velocity_rad_s;
-        self.last_pose = self.servo.sensor_pose(now, &state.position_rad).ok();
+        self.refresh_pose(now, &state.position_rad);
+        Ok(state)
+    }
+
+    /// The believed sensor pose at `q`, kept and reported.
+    fn refresh_pose(&mut self, now: f64, q: &control::types::Joints) {
+        self.last_pose = self.servo.sensor_pose(now, q).ok();
         if let Some(p) = self.last_pose {
             self.status.sensor = p.centre;
             self.status.depth_m = p.depth_m;
         }
-        Ok(state)
     }
 
     fn drain_tactile(&mut self, now: f64) {
@@ -401,11 +406,7 @@ impl ControlLoop {
                         // The believed pose in the new frame before the next step compares it
                         // with a setpoint in that frame.
                         let q = self.status.position_rad;
-                        self.last_pose = self.servo.sensor_pose(now, &q).ok();
-                        if let Some(p) = self.last_pose {
-                            self.status.sensor = p.centre;
-                            self.status.depth_m = p.depth_m;
-                        }
+                        self.refresh_pose(now, &q);
                         if powered {
                             self.status.motion_seq = seq;
                             self.status.settled = false;

@@ -85,6 +85,18 @@ pub fn usable_record(
     record.calibration.geometry(sensor)
 }
 
+/// The placement of the file's tissue record, if the daemon may use it (it passed its checks).
+pub fn usable_tissue(record: &TissueRecord) -> Result<control::frames::TissuePlacement, String> {
+    if record.passed {
+        Ok(record.placement)
+    } else {
+        Err(format!(
+            "its tissue frame of {} did not pass its checks",
+            record.measured_utc
+        ))
+    }
+}
+
 impl Calibration {
     /// With the file's tactile record applied (`applied` must pass [`usable_record`]).
     pub fn new(
