@@ -112,6 +112,17 @@ impl HarmonicFit {
                 period_s: phase.period_s,
             });
         }
+        Self::fit_phase(samples, |t| phase.phase_rad(t), trend)
+    }
+
+    /// As [`Self::fit`], with the pulse's phase given at every sample time by `phase_rad`
+    /// (a phase warped through each beat's own time, for an irregular heart). The caller
+    /// keeps it finite and increasing.
+    pub fn fit_phase<'a>(
+        samples: impl Iterator<Item = &'a TactileFrame> + Clone,
+        phase_rad: impl Fn(f64) -> f64,
+        trend: Trend,
+    ) -> Result<Self, HarmonicFitError> {
         // The trend regressor runs over [-1, 1] across the window (well conditioned).
         let (mut t_first, mut t_last, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0usize);
         for f in samples.clone().filter(|f| f.is_finite()) {
@@ -128,7 +139,7 @@ impl HarmonicFit {
         let mut xty = SMatrix::<f64, REGRESSORS, ELEMENTS>::zeros();
         let mut yty = [0.0; ELEMENTS];
         for f in samples.filter(|f| f.is_finite()) {
-            let x = regressors(f.t_s, mid, half, &phase, trend);
+            let x = regressors(f.t_s, mid, half, phase_rad(f.t_s), trend);
             xtx += x * x.transpose();
             for (e, &y) in f.force_n.iter().enumerate() {
                 for r in 0..REGRESSORS {
@@ -207,13 +218,7 @@ impl HarmonicFit {
     }
 }
 
-fn regressors(
-    t: f64,
-    mid: f64,
-    half: f64,
-    phase: &PulsePhase,
-    trend: Trend,
-) -> SVector<f64, REGRESSORS> {
+fn regressors(t: f64, mid: f64, half: f64, phi: f64, trend: Trend) -> SVector<f64, REGRESSORS> {
     let mut x = SVector::<f64, REGRESSORS>::zeros();
     let u = (t - mid) / half;
     x[0] = 1.0;
@@ -221,7 +226,7 @@ fn regressors(
     if trend == Trend::Quadratic {
         x[2] = u * u - 1.0 / 3.0;
     }
-    let (s1, c1) = phase.phase_rad(t).sin_cos();
+    let (s1, c1) = phi.sin_cos();
     // cos hφ, sin hφ by the angle-addition recurrence.
     let (mut c, mut s) = (c1, s1);
     for h in 0..HARMONICS {
@@ -268,6 +273,7 @@ pub fn waveform_value(w: &Waveform, phi: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::TAU;
 
     fn frames(n: usize, dt: f64, f: impl Fn(f64, usize) -> f64) -> Vec<TactileFrame> {
         (0..n)
@@ -309,6 +315,37 @@ mod tests {
         for e in 0..ELEMENTS {
             assert!((p.amplitude_n[e] - (e as f64 - 4.0)).abs() < 1e-8);
         }
+    }
+
+    #[test]
+    fn a_warped_phase_recovers_beats_of_changing_length() {
+        // Beats 0.8, 1.1 and 0.7 s long: one period of the waveform each.
+        let knots = [(3.0, 0.0), (3.8, TAU), (4.9, 2.0 * TAU), (5.6, 3.0 * TAU)];
+        let warped = |t: f64| {
+            let i = knots
+                .partition_point(|k| k.0 <= t)
+                .clamp(1, knots.len() - 1);
+            let (p, q) = (knots[i - 1], knots[i]);
+            p.1 + (q.1 - p.1) * (t - p.0) / (q.0 - p.0)
+        };
+        let fs = frames(260, 0.01, |t, e| {
+            let phi = warped(t);
+            (e as f64 - 4.0) * (0.02 * phi.cos() + 0.01 * (2.0 * phi).sin()) + 0.3 - 0.1 * t
+        });
+        let fit = HarmonicFit::fit_phase(fs.iter(), warped, Trend::Linear).expect("fits");
+        let w = Waveform::from_column_slice(&[0.02, 0.0, 0.0, 0.01, 0.0, 0.0]);
+        let p = fit.project(&w).expect("informative");
+        for e in 0..ELEMENTS {
+            assert!((p.amplitude_n[e] - (e as f64 - 4.0)).abs() < 1e-8);
+        }
+        // The same samples at one mean period lose much of the waveform.
+        let mean = PulsePhase {
+            t_ref_s: 3.0,
+            period_s: 2.6 / 3.0,
+        };
+        let plain = HarmonicFit::fit(fs.iter(), mean, Trend::Linear).expect("fits");
+        let q = plain.project(&w).expect("informative");
+        assert!(q.amplitude_n[0].abs() < 0.8 * 4.0, "{}", q.amplitude_n[0]);
     }
 
     #[test]

@@ -26,7 +26,9 @@ use replacing::Replaced;
 use seating::{SeatedMark, SideMark, Stroke};
 use weak::{Listen, ListenFor, WeakStep};
 
-use super::beat_fix::{BeatFix, BeatMiss, SpatialPrior, analyse_window};
+use super::beat_fix::{
+    BeatFix, BeatMiss, SpatialPrior, WindowAnalysis, analyse_window, analyse_window_beat_by_beat,
+};
 use super::drag::Drag;
 use super::history::History;
 use super::params::BeatSlideParams;
@@ -1548,7 +1550,7 @@ mod tests {
         spans_miss: bool,
     ) -> (usize, BeatSlide) {
         let point = t.accept(accepted, false).expect("a clear fix on the path");
-        t.after_fix(after, point, accepted.sensor, 10.0, spans_miss);
+        t.after_fix(after, point, accepted.sensor, 10.0, spans_miss, false);
         let located = std::iter::from_fn(|| t.events.pop())
             .filter(|e| matches!(e, TrackerEvent::Located(_)))
             .count();

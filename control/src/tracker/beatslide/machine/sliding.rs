@@ -3,6 +3,11 @@
 
 use super::*;
 
+/// A fix whose beats were timed each on its own needs this many times `fix_snr`: the free
+/// timing fits noise too (2 of 300 noise-only windows reach an SNR of 5, `beat_fix`'s
+/// tests).
+const PER_BEAT_SNR_MARGIN: f64 = 1.5;
+
 impl BeatSlide {
     /// The next target and speed from the path filter, for the sensor at `sensor`.
     pub(super) fn plan(&self, sensor: SurfacePoint) -> Option<(SurfacePoint, f64)> {
@@ -124,6 +129,32 @@ impl BeatSlide {
             Ok((fix, point))
         });
         let timed_weak = matches!(timed, Err(Miss::Weak { .. }));
+        // An irregular heart's beats timed each on its own, when one delay for the window
+        // did not give a fix.
+        // Such a fix steers but is not reported: its beats' timing was chosen to fit the
+        // window, and on the fresh fast-irregular draws one reported so lay 2.3 mm off.
+        let mut steer_only = false;
+        let timed = match timed {
+            Err(miss @ (Miss::Weak { .. } | Miss::Timing { .. })) if self.heart_irregular() => {
+                let per_beat = self
+                    .analyse_beat_by_beat(from)
+                    .map_err(Miss::from)
+                    .and_then(|fix| {
+                        let needed = PER_BEAT_SNR_MARGIN * self.params.fix_snr;
+                        if fix.kernel.snr() < needed {
+                            return Err(Miss::Weak {
+                                snr: fix.kernel.snr(),
+                                needed,
+                            });
+                        }
+                        let point = self.accept(&fix, false)?;
+                        Ok((fix, point))
+                    });
+                steer_only = per_beat.is_ok();
+                per_beat.or(Err(miss))
+            }
+            other => other,
+        };
         // A beat the clock could not time (irregular beats): the pulse's spatial pattern
         // without any timing, from the window's coherent part (control::classify).
         let fix = match timed {
@@ -137,7 +168,7 @@ impl BeatSlide {
         };
         match fix {
             Ok((fix, point)) => {
-                self.after_fix(&fix, point, input.sensor, t, spans_miss);
+                self.after_fix(&fix, point, input.sensor, t, spans_miss, steer_only);
                 return;
             }
             Err(why) => self.last_miss = Some(why),
@@ -247,13 +278,28 @@ impl BeatSlide {
         self.analyse_span(from_s, f64::INFINITY)
     }
 
+    /// One fix over the frames since `from_s`, each beat timed on its own (an irregular
+    /// heart: [`analyse_window_beat_by_beat`]).
+    pub(super) fn analyse_beat_by_beat(&mut self, from_s: f64) -> Result<BeatFix, BeatMiss> {
+        self.analyse_with(from_s, f64::INFINITY, analyse_window_beat_by_beat)
+    }
+
     /// One fix over the frames from `from_s` up to (not including) `to_s`.
     pub(super) fn analyse_span(&mut self, from_s: f64, to_s: f64) -> Result<BeatFix, BeatMiss> {
+        self.analyse_with(from_s, to_s, analyse_window)
+    }
+
+    fn analyse_with(
+        &mut self,
+        from_s: f64,
+        to_s: f64,
+        analyse: WindowAnalysis,
+    ) -> Result<BeatFix, BeatMiss> {
         let Some(pulse) = self.pulse else {
             return Err(BeatMiss::Empty);
         };
         let window = self.history.between(from_s, to_s);
-        analyse_window(
+        analyse(
             &window,
             pulse.clock.phase(),
             &pulse.template,
@@ -337,8 +383,8 @@ impl BeatSlide {
         Ok(corrected)
     }
 
-    /// `spans_miss`: the fix's window also holds a missed one; it steers the track but is
-    /// not reported (the sensor moved between the two, and one of them held no clear beat).
+    /// `steer_only`: the fix steers the track and is never reported. `spans_miss`: the fix's
+    /// window also holds a missed one; it steers the track but is not reported (the sensor moved between the two, and one of them held no clear beat).
     /// An untimed fix of a regular heart steers but is not reported either: that the clock
     /// could not time its window says the window holds no beat when this heart beats, and
     /// nothing but its spatial pattern says it is this artery's pulse. Beside a pulsating
@@ -355,6 +401,7 @@ impl BeatSlide {
         sensor: SurfacePoint,
         t_s: f64,
         spans_miss: bool,
+        steer_only: bool,
     ) {
         let fix_sd = self.fix_sd(&fix.kernel).hypot(self.tissue.sd_m());
         let sd_m = self.point_sd(fix_sd, fix.lag_dir);
@@ -369,6 +416,7 @@ impl BeatSlide {
         if !self.smeared(self.window_len_s())
             && !disputed
             && !spans_miss
+            && !steer_only
             && (fix.is_timed() || self.heart_irregular())
         {
             // The artery's place on the array moved from the last fix's to this one's over
