@@ -101,6 +101,41 @@ fn a_region_around_the_artery_is_searched_and_found_inside_it() {
     }
     wait_state(&mut c, "holding");
     daemon.stop();
+    // The search has its own recording: the frames it felt, its events, its map; and its
+    // outcome beside it.
+    let trials = dir.path().join("trials");
+    let mcap = std::fs::read_dir(&trials)
+        .expect("recording dir")
+        .flatten()
+        .map(|e| e.path())
+        .find(|p| {
+            let name = p.file_name().map(|n| n.to_string_lossy().into_owned());
+            name.is_some_and(|n| n.starts_with("search-") && n.ends_with(".mcap"))
+        })
+        .expect("a search recording");
+    let summary: Value = serde_json::from_slice(
+        &std::fs::read(mcap.with_extension("json")).expect("the search's summary"),
+    )
+    .expect("summary JSON");
+    assert_eq!(summary["outcome"]["outcome"], "found", "{summary}");
+    let bytes = std::fs::read(&mcap).expect("read the recording");
+    let (mut frames, mut maps, mut finished) = (0, 0, 0);
+    for m in mcap::MessageStream::new(&bytes).expect("an MCAP file") {
+        let m = m.expect("message");
+        let v: Value = serde_json::from_slice(&m.data).expect("JSON message");
+        match m.channel.topic.as_str() {
+            "/tactile" => frames += 1,
+            "/artery" => {
+                let entities = v["entities"].as_array().cloned().unwrap_or_default();
+                maps += entities.iter().filter(|e| e["id"] == "search_map").count();
+            }
+            "/events" if v["event"] == "search" && v["kind"] == "finished" => finished += 1,
+            _ => {}
+        }
+    }
+    assert!(frames > 100, "{frames} tactile frames");
+    assert_eq!(maps, looks as usize, "one map per look");
+    assert_eq!(finished, 1);
 }
 
 #[test]
@@ -244,4 +279,69 @@ fn the_demo_searches_then_tracks_the_whole_artery() {
     assert_eq!(out.status.code(), Some(0), "{stdout}{stderr}");
     let summary: Value = serde_json::from_str(stdout.trim()).expect("the summary");
     assert_eq!(summary["completed"], true, "{summary}");
+}
+
+/// A search is recorded as a trial is: refused where the disk has no room, and ended with
+/// `recording_failed` latched when the disk fills up under it.
+#[test]
+fn a_search_on_a_full_disk_ends_with_recording_failed_and_the_next_is_refused() {
+    if !nix::unistd::geteuid().is_root() {
+        eprintln!("skipped: mounting a tmpfs needs root");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tmp");
+    let trials = dir.path().join("trials");
+    let Some(disk) = e2e::SmallDisk::mount(&trials, 256 * 1024) else {
+        eprintln!("skipped: cannot mount a tmpfs here");
+        return;
+    };
+    let config = e2e::write_config(dir.path(), &Setup::default());
+    let text = std::fs::read_to_string(&config).expect("config");
+    let dir_line = format!("dir: {:?},", trials.display().to_string());
+    let lowered = text.replacen(
+        &dir_line,
+        &format!("{dir_line}\n        min_free_bytes: 65536,"),
+        1,
+    );
+    assert_ne!(text, lowered, "the config names the recording folder");
+    std::fs::write(&config, lowered).expect("write");
+    let (daemon, mut c) = e2e::start_with_config(dir.path(), config);
+    let ([_, (x2, z2)], _) = scene(&mut c);
+    call(
+        &mut c,
+        "subscribe",
+        json!({"streams": ["search", "faults", "state"]}),
+    );
+    call(&mut c, "enable", json!({}));
+    // Room for the file's start, not for the search. Its end cannot be recorded, so it is
+    // not published either (what is said is recorded): the fault says it, naming the disk's
+    // error, and the search is over.
+    let r = region(x2, z2, 0.015);
+    call(&mut c, "search", r.clone());
+    disk.fill();
+    let fault = wait_event(&mut c, "the recording_failed fault", |e| {
+        e["event"] == "fault"
+    });
+    assert_eq!(fault["fault"], "recording_failed", "{fault}");
+    assert!(
+        fault["reason"]
+            .as_str()
+            .unwrap_or("")
+            .contains("No space left on device"),
+        "{fault}"
+    );
+    wait_state(&mut c, "fault");
+    // After a reset, with the disk still full, the next search is refused, naming why.
+    call(&mut c, "reset", json!({}));
+    call(&mut c, "enable", json!({}));
+    let again = c.request("search", r, T).expect("reply");
+    assert_eq!(again["ok"], false, "{again}");
+    assert!(
+        again["reason"]
+            .as_str()
+            .unwrap_or("")
+            .contains("recording.min_free_bytes"),
+        "{again}"
+    );
+    daemon.stop();
 }

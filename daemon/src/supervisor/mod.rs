@@ -11,6 +11,7 @@ mod live_view;
 mod report;
 mod requests;
 mod search;
+mod search_recording;
 mod search_scene;
 pub mod state;
 mod tissue_touch;
@@ -220,6 +221,8 @@ pub struct Supervisor {
     /// (where, and whether a pulse was placed there) for the live map.
     searcher: Option<control::search::Searcher>,
     search_looks: Vec<(SurfacePoint, bool)>,
+    /// The search's own recording while it runs (`supervisor/search_recording.rs`).
+    search_file: Option<search_recording::SearchFile>,
     /// The tissue-frame procedure under way (state `calibrating`), and its result waiting
     /// for the loop to take the new placement.
     tissue: Option<tissue_touch::TissueTouch>,
@@ -295,6 +298,7 @@ impl Supervisor {
             approach: ApproachTrail::default(),
             searcher: None,
             search_looks: Vec::new(),
+            search_file: None,
             tissue: None,
             tissue_result: None,
             pending: Vec::new(),
@@ -383,7 +387,7 @@ impl Supervisor {
 
     /// Record into the open trial only.
     fn record_trial(&self, topic: Topic, t_s: f64, v: &Value) {
-        if self.trial.is_none() {
+        if self.recording_epoch().is_none() {
             return;
         }
         let msg = RecorderMsg::Write {
@@ -410,8 +414,16 @@ impl Supervisor {
     }
 
     /// Someone takes `topic`: the open trial's file, or a live subscriber.
+    /// The open file's clock offset: the trial's, or a search's (`search_recording.rs`).
+    fn recording_epoch(&self) -> Option<i128> {
+        self.trial
+            .as_ref()
+            .map(|t| t.epoch_offset_ns)
+            .or(self.search_file.as_ref().map(|f| f.epoch_offset_ns))
+    }
+
     fn wanted(&self, topic: Topic) -> bool {
-        self.trial.is_some()
+        self.recording_epoch().is_some()
             || self
                 .links
                 .live
@@ -423,10 +435,8 @@ impl Supervisor {
     /// times: built once per clock (the trial's file and the live view keep their own), by
     /// the same builder.
     fn emit<T: serde::Serialize>(&self, topic: Topic, t_s: f64, build: impl Fn(Epoch) -> T) {
-        if let Some(trial) = self.trial.as_ref() {
-            let epoch = Epoch {
-                offset_ns: trial.epoch_offset_ns,
-            };
+        if let Some(offset_ns) = self.recording_epoch() {
+            let epoch = Epoch { offset_ns };
             match serde_json::to_value(build(epoch)) {
                 Ok(v) => self.record_trial(topic, t_s, &v),
                 Err(e) => tracing::error!("cannot serialize a {} record: {e}", topic.name()),
@@ -505,7 +515,7 @@ impl Supervisor {
 
     /// Send a reply through the recorder, recording it (with who asked) in the open trial.
     fn answer(&self, to: Responder, reply: Value, durable: bool) {
-        if self.trial.is_some() {
+        if self.recording_epoch().is_some() {
             let t = self.now_s();
             let record = ReplyRecord {
                 event: "reply".into(),
@@ -636,19 +646,7 @@ impl Supervisor {
             // What replay needs to feed the frames through as the tracker saw them.
             trial_meta.insert("tactile_calibration".to_string(), j);
         }
-        trial_meta.insert("started_t_s".to_string(), json!(t).to_string());
-        trial_meta.insert("epoch_offset_ns".to_string(), epoch_offset_ns.to_string());
-        trial_meta.insert(
-            "clock".to_string(),
-            "log and publish times are Unix ns = epoch_offset_ns + t_s * 1e9; t_s in each message is the daemon clock (simulated time on the sim backend)".to_string(),
-        );
-        let mut metadata = vec![("trial".to_string(), trial_meta)];
-        metadata.extend(self.s.trial_metadata.iter().cloned());
-        let _ = self.links.recorder.send(RecorderMsg::Open {
-            id: id.clone(),
-            metadata,
-            epoch_offset_ns,
-        });
+        self.open_recording(&id, "trial", trial_meta, t, epoch_offset_ns);
         let trial = Trial::new(id.clone(), tracker.name().to_string(), t, epoch_offset_ns);
         let mut tracker = tracker;
         let approach = self.approach.hand_to(tracker.as_mut());
@@ -668,6 +666,31 @@ impl Supervisor {
         self.record_true_path(t);
         self.live_scene(t);
         self.publish(Stream::Trials, 0, &v, true);
+    }
+
+    /// Open the recorder's file `<id>.mcap` with `meta` as its `kind` metadata record (the
+    /// clock's entries added) and the configured records after it.
+    fn open_recording(
+        &self,
+        id: &str,
+        kind: &str,
+        mut meta: BTreeMap<String, String>,
+        t: f64,
+        epoch_offset_ns: i128,
+    ) {
+        meta.insert("started_t_s".to_string(), json!(t).to_string());
+        meta.insert("epoch_offset_ns".to_string(), epoch_offset_ns.to_string());
+        meta.insert(
+            "clock".to_string(),
+            "log and publish times are Unix ns = epoch_offset_ns + t_s * 1e9; t_s in each message is the daemon clock (simulated time on the sim backend)".to_string(),
+        );
+        let mut metadata = vec![(kind.to_string(), meta)];
+        metadata.extend(self.s.trial_metadata.iter().cloned());
+        let _ = self.links.recorder.send(RecorderMsg::Open {
+            id: id.to_string(),
+            metadata,
+            epoch_offset_ns,
+        });
     }
 
     fn end_trial(&mut self, end: TrialEnd) {
@@ -878,6 +901,7 @@ impl Supervisor {
         );
         self.tracker_stop();
         self.end_trial(TrialEnd::RecordingFailed);
+        self.search_abort();
         if self.fault.is_some() || self.pending_latch.is_some() {
             return;
         }
@@ -1134,6 +1158,7 @@ impl Supervisor {
             _ => {}
         }
         self.end_trial(TrialEnd::Shutdown);
+        self.search_abort();
         let hold_seq = if self.state.powered() {
             let seq = self.seq();
             self.motion_seq = seq;

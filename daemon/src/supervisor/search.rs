@@ -1,9 +1,9 @@
 //! The supervisor's side of an autonomous search (the `search` verb, docs/search.md): the
 //! searcher (control's `search`) fed every tactile frame while the state is `searching`,
 //! its looks turned into bounded motion commands inside the workspace, and its looks and
-//! end published on the `search` stream and recorded as events. A search opens no trial:
-//! it ends at rest, and its two seed points are where the surgeon (or `pulsetrack search
-//! --then-track`) marks them.
+//! end published on the `search` stream and recorded, with its map, in its own file
+//! (`search_recording.rs`). A search opens no trial: it ends at rest, and its two seed
+//! points are where the surgeon (or `pulsetrack search --then-track`) marks them.
 
 use control::search::{SearchEvent, SearchOutcome, Searcher};
 
@@ -36,6 +36,12 @@ impl Supervisor {
                 );
             }
         }
+        // A search is recorded: refused, as a trial's first mark is, where it cannot be.
+        if let Err(why) =
+            crate::recording::space::check_room(&self.s.recording_dir, self.s.min_free_bytes)
+        {
+            return self.reply_err(id, to, ErrorCode::Refused, &why);
+        }
         let built = Searcher::new(self.s.search, self.calibration.sensor(), region, method)
             .and_then(|s| match heading_rad {
                 Some(h) => s.expect_heading(h),
@@ -51,6 +57,15 @@ impl Supervisor {
         let t = self.now_s();
         let v = json!({"event": "search", "kind": "started", "t_s": t, "method": method.as_str(),
             "region": region, "heading_rad": heading_rad});
+        self.open_search_recording(t, &v);
+        let recording = self.search_recording_path();
+        let v = match v {
+            Value::Object(mut o) => {
+                o.insert("recording".into(), json!(recording));
+                Value::Object(o)
+            }
+            other => other,
+        };
         self.record(Topic::Events, t, &v);
         self.publish(Stream::Search, 0, &v, true);
         self.reply_ok(
@@ -135,6 +150,7 @@ impl Supervisor {
         }
         if let SearchEvent::Finished(o) = e {
             self.log_line(t_s, level::INFO, describe(&o));
+            self.close_search_recording(&v);
             self.searcher = None;
             self.tracker_target = None;
             if self.state == OpState::Searching {

@@ -15,7 +15,7 @@ const MIN_SHOWN: f64 = 0.01;
 const TILE_THICKNESS_M: f64 = 0.0002;
 
 impl Supervisor {
-    /// Publish the search's map now (live only: a search opens no trial file).
+    /// Publish the search's map now, live and into the search's file.
     pub(super) fn live_search_map(&self, t: f64) {
         let looks = &self.search_looks;
         let Some(searcher) = self.searcher.as_ref() else {
