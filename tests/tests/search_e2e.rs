@@ -136,6 +136,15 @@ fn a_region_around_the_artery_is_searched_and_found_inside_it() {
     assert!(frames > 100, "{frames} tactile frames");
     assert_eq!(maps, looks as usize, "one map per look");
     assert_eq!(finished, 1);
+    // Replay replays trials: a search's file is refused with the reason.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
+        .arg("replay")
+        .arg(&mcap)
+        .output()
+        .expect("run pulsetrack replay");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("a search's own recording"), "{err}");
 }
 
 #[test]

@@ -123,7 +123,7 @@ impl Located {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ReplayError {
     #[error(
-        "the recording has no tracker inputs (frames marked as given to the tracker, mark and track calls): it was recorded before offline replay existed, or no trial ran in it"
+        "the recording has no tracker inputs (frames marked as given to the tracker, mark and track calls): it was recorded before offline replay existed, or no trial ran in it (a search's own recording)"
     )]
     NoTrackerInputs,
     #[error("{topic} message {index}: {reason}")]
