@@ -625,12 +625,7 @@ impl Supervisor {
                 return;
             }
         };
-        let id = format!(
-            "{}-{}",
-            utc_stamp(std::time::SystemTime::now()),
-            self.next_seq
-        );
-        let epoch_offset_ns = epoch_offset_ns(std::time::SystemTime::now(), t);
+        let (id, epoch_offset_ns) = self.new_recording("", t);
         let mut trial_meta = BTreeMap::new();
         trial_meta.insert("trial".to_string(), id.clone());
         trial_meta.insert("tracker".to_string(), tracker.name().to_string());
@@ -666,6 +661,14 @@ impl Supervisor {
         self.record_true_path(t);
         self.live_scene(t);
         self.publish(Stream::Trials, 0, &v, true);
+    }
+
+    /// A new recording's name (`<prefix><UTC stamp>-<n>`) and its clock offset for daemon
+    /// time `t`.
+    fn new_recording(&self, prefix: &str, t: f64) -> (String, i128) {
+        let now = std::time::SystemTime::now();
+        let id = format!("{prefix}{}-{}", utc_stamp(now), self.next_seq);
+        (id, epoch_offset_ns(now, t))
     }
 
     /// Open the recorder's file `<id>.mcap` with `meta` as its `kind` metadata record (the

@@ -22,12 +22,7 @@ impl Supervisor {
             return;
         }
         self.close_search_recording(&json!({"end_reason": "abandoned"}));
-        let id = format!(
-            "search-{}-{}",
-            utc_stamp(std::time::SystemTime::now()),
-            self.next_seq
-        );
-        let epoch_offset_ns = epoch_offset_ns(std::time::SystemTime::now(), t);
+        let (id, epoch_offset_ns) = self.new_recording("search-", t);
         let mut meta = BTreeMap::new();
         meta.insert("search".to_string(), id.clone());
         meta.insert("backend".to_string(), self.info.kind.to_string());
