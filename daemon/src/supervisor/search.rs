@@ -55,17 +55,12 @@ impl Supervisor {
         self.search_looks.clear();
         self.set_state(OpState::Searching);
         let t = self.now_s();
+        let request =
+            json!({"method": method.as_str(), "region": region, "heading_rad": heading_rad});
+        self.open_search_recording(t, &request);
         let v = json!({"event": "search", "kind": "started", "t_s": t, "method": method.as_str(),
-            "region": region, "heading_rad": heading_rad});
-        self.open_search_recording(t, &v);
-        let recording = self.search_recording_path();
-        let v = match v {
-            Value::Object(mut o) => {
-                o.insert("recording".into(), json!(recording));
-                Value::Object(o)
-            }
-            other => other,
-        };
+            "region": region, "heading_rad": heading_rad,
+            "recording": self.search_recording_path()});
         self.record(Topic::Events, t, &v);
         self.publish(Stream::Search, 0, &v, true);
         self.reply_ok(

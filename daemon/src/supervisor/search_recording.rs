@@ -21,7 +21,6 @@ impl Supervisor {
         if self.trial.is_some() {
             return;
         }
-        self.close_search_recording(&json!({"end_reason": "abandoned"}));
         let (id, epoch_offset_ns) = self.new_recording("search-", t);
         let mut meta = BTreeMap::new();
         meta.insert("search".to_string(), id.clone());
@@ -47,12 +46,10 @@ impl Supervisor {
 
     /// Close the search's file with `outcome` as its summary.
     pub(super) fn close_search_recording(&mut self, outcome: &Value) {
-        let Some(path) = self.search_recording_path() else {
-            return;
-        };
         let Some(file) = self.search_file.take() else {
             return;
         };
+        let path = self.s.recording_dir.join(format!("{}.mcap", file.id));
         let summary = json!({"search": file.id, "recording": path, "outcome": outcome});
         let _ = self.links.recorder.send(RecorderMsg::Close {
             summary,

@@ -223,7 +223,7 @@ pub fn analyse_window_beat_by_beat(
         let phi = TAU * k as f64 + centre;
         let tc = phase.t_ref_s + phi / phase.omega_rad_s();
         let (a, b) = (tc - 0.5 * period, tc + 0.5 * period);
-        if (b.min(t1) - a.max(t0)) < MIN_BEAT_COVER * period || n == MAX_TIMED_BEATS {
+        if (b.min(t1) - a.max(t0)) < MIN_BEAT_COVER * period {
             continue;
         }
         let beat = window.frames().filter(|f| f.t_s >= a && f.t_s < b);
