@@ -212,7 +212,7 @@ pub fn analyse_window_beat_by_beat(
     let centre = fundamental_delay_rad(template);
     let k_first = ((phase.phase_rad(t0) - centre) / TAU).floor() as i64;
     let k_last = ((phase.phase_rad(t1) - centre) / TAU).ceil() as i64;
-    if k_last - k_first >= MAX_TIMED_BEATS as i64 {
+    if k_last.saturating_sub(k_first) >= MAX_TIMED_BEATS as i64 {
         return Err(BeatMiss::Empty);
     }
     // (time, warped phase) at each timed beat's centre.
