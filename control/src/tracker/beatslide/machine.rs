@@ -28,6 +28,7 @@ use weak::{Listen, ListenFor, WeakStep};
 
 use super::beat_fix::{
     BeatFix, BeatMiss, SpatialPrior, WindowAnalysis, analyse_window, analyse_window_beat_by_beat,
+    analyse_window_on_array,
 };
 use super::drag::Drag;
 use super::history::History;
