@@ -137,15 +137,13 @@ pub fn analyse_window(
     let combined = fit.combine(&weights);
     let max_delay = max_delay_fraction.clamp(0.0, 0.5) * std::f64::consts::TAU;
     let delay = best_delay(|q| combined_score(&fit, &combined, q), template, max_delay);
-    fix_at(
-        window,
-        &fit,
-        &shift_waveform(template, delay),
-        delay / phase.omega_rad_s(),
-        shift_waveform(&combined, -delay),
-        sigma,
-        geometry,
-    )
+    let timed = Timed {
+        template,
+        combined: &combined,
+        delay_rad: delay,
+        phase,
+    };
+    fix_timed(window, &fit, &timed, sigma, geometry)
 }
 
 /// Analyse one window timed on the whole array, wherever the pulse lies on it, instead of
@@ -171,15 +169,13 @@ pub fn analyse_window_on_array(
     let max_delay = max_delay_fraction.clamp(0.0, 0.5) * std::f64::consts::TAU;
     let delay = best_delay(|q| array_score(&fit, q), template, max_delay);
     let prior_combined = fit.combine(&spatial_weights(prior, geometry));
-    let mut fix = fix_at(
-        window,
-        &fit,
-        &shift_waveform(template, delay),
-        delay / phase.omega_rad_s(),
-        shift_waveform(&prior_combined, -delay),
-        sigma,
-        geometry,
-    )?;
+    let timed = Timed {
+        template,
+        combined: &prior_combined,
+        delay_rad: delay,
+        phase,
+    };
+    let mut fix = fix_timed(window, &fit, &timed, sigma, geometry)?;
     // The waveform the template learns from is combined where the pulse was found.
     let found = SpatialPrior {
         element: fix.kernel.element,
@@ -189,6 +185,34 @@ pub fn analyse_window_on_array(
         fix.aligned = shift_waveform(&fit.combine(&spatial_weights(found, geometry)), -delay);
     }
     Ok(fix)
+}
+
+/// One delay for a whole window: the pulse's `template` and the spatially `combined`
+/// coefficients, timed `delay_rad` after the clock's `phase`.
+struct Timed<'a> {
+    template: &'a Waveform,
+    combined: &'a Waveform,
+    delay_rad: f64,
+    phase: PulsePhase,
+}
+
+/// The fix from a window's fit at one delay ([`fix_at`]).
+fn fix_timed(
+    window: &Window<'_>,
+    fit: &HarmonicFit,
+    timed: &Timed<'_>,
+    sigma: f64,
+    geometry: &ArrayGeometry,
+) -> Result<BeatFix, BeatMiss> {
+    fix_at(
+        window,
+        fit,
+        &shift_waveform(timed.template, timed.delay_rad),
+        timed.delay_rad / timed.phase.omega_rad_s(),
+        shift_waveform(timed.combined, -timed.delay_rad),
+        sigma,
+        geometry,
+    )
 }
 
 /// The fix from a window's fit: each element's amplitude along the timed waveform `q`, the
@@ -498,6 +522,22 @@ mod tests {
         (one, each)
     }
 
+    /// `fix` holds the pulse at its element with more than `factor` times the SNR of
+    /// `other` (a fix that lost it, or none).
+    fn assert_recovers(fix: &BeatFix, other: &Result<BeatFix, BeatMiss>, factor: f64) {
+        let other_snr = other.as_ref().map_or(0.0, |f| f.kernel.snr());
+        assert!(
+            fix.kernel.snr() > factor * other_snr,
+            "SNR {} against {other_snr}",
+            fix.kernel.snr()
+        );
+        assert!(
+            (fix.kernel.element - ELEMENT).abs() < 0.3,
+            "element {}",
+            fix.kernel.element
+        );
+    }
+
     /// Beats at the clock's times, each moved by `late` of a period.
     fn beats(late: &[f64]) -> Vec<f64> {
         late.iter()
@@ -511,18 +551,7 @@ mod tests {
         // Intervals of 0.65 s ± 25-30 % over about two beats (a sliding window).
         let h = history(&beats(&[0.0, 1.3, 2.05, 3.0]), 0.02, 7);
         let (one, each) = both(&h);
-        let each = each.expect("beat by beat fits");
-        let one_snr = one.map_or(0.0, |f| f.kernel.snr());
-        assert!(
-            each.kernel.snr() > 1.3 * one_snr,
-            "beat by beat {} against one delay {one_snr}",
-            each.kernel.snr()
-        );
-        assert!(
-            (each.kernel.element - ELEMENT).abs() < 0.3,
-            "{}",
-            each.kernel.element
-        );
+        assert_recovers(&each.expect("beat by beat fits"), &one, 1.3);
     }
 
     #[test]
@@ -536,26 +565,31 @@ mod tests {
         assert!((0.9..1.3).contains(&ratio), "SNR ratio {ratio}");
     }
 
-    #[test]
-    fn noise_alone_rarely_passes_the_fix_threshold_when_timed_beat_by_beat() {
-        // The free timing of each beat raises the noise-only statistic; the sliding fix
-        // needs an SNR of 5 (`fix_snr`).
-        let trials = 300;
+    /// Of 300 noise-only windows with beats at `late` (see [`beats`]), how many fixes by
+    /// `snr_of` reach an SNR of 5 (`fix_snr`), and the largest SNR.
+    fn noise_only_passes(
+        late: &[f64],
+        seed0: u64,
+        snr_of: impl Fn(&History) -> Option<f64>,
+    ) -> (usize, f64) {
         let mut passed = 0;
         let mut worst: f64 = 0.0;
-        for seed in 0..trials {
-            let h = history(&beats(&[0.0, 1.2, 1.9, 3.1, 4.0]), 0.0, 1000 + seed);
-            if let (_, Ok(f)) = both(&h) {
-                worst = worst.max(f.kernel.snr());
-                if f.kernel.snr() >= 5.0 {
-                    passed += 1;
-                }
+        for seed in 0..300 {
+            if let Some(snr) = snr_of(&history(&beats(late), 0.0, seed0 + seed)) {
+                worst = worst.max(snr);
+                passed += usize::from(snr >= 5.0);
             }
         }
-        assert!(
-            passed <= 3,
-            "{passed} of {trials} passed (largest SNR {worst})"
-        );
+        (passed, worst)
+    }
+
+    #[test]
+    fn noise_alone_rarely_passes_the_fix_threshold_when_timed_beat_by_beat() {
+        // The free timing of each beat raises the noise-only statistic.
+        let (passed, worst) = noise_only_passes(&[0.0, 1.2, 1.9, 3.1, 4.0], 1000, |h| {
+            both(h).1.ok().map(|f| f.kernel.snr())
+        });
+        assert!(passed <= 3, "{passed} of 300 passed (largest SNR {worst})");
     }
 
     /// The window analysed with the prior at `element`: timed there, and on the array.
@@ -583,17 +617,7 @@ mod tests {
         let h = history(&beats(&[late, 1.0 + late, 2.0 + late]), 0.03, 5);
         let (at_prior, on_array) = prior_and_array(&h, ELEMENT + 4.0);
         let on_array = on_array.expect("timed on the array");
-        let prior_snr = at_prior.map_or(0.0, |f| f.kernel.snr());
-        assert!(
-            on_array.kernel.snr() > 2.0 * prior_snr,
-            "on the array {} against the prior's {prior_snr}",
-            on_array.kernel.snr()
-        );
-        assert!(
-            (on_array.kernel.element - ELEMENT).abs() < 0.3,
-            "element {}",
-            on_array.kernel.element
-        );
+        assert_recovers(&on_array, &at_prior, 2.0);
         // Timed as if the prior had been right, and the template learns from the pulse
         // where it was found, not from the prior's elements.
         let right = prior_and_array(&h, ELEMENT).0.expect("at the right prior");
@@ -625,21 +649,11 @@ mod tests {
     #[test]
     fn noise_alone_rarely_passes_the_fix_threshold_when_timed_on_the_array() {
         // Timed on whichever element's noise is largest, the statistic rises; the sliding
-        // fix needs an SNR of 5 (`fix_snr`), and twice that of a fix timed so.
-        let trials = 300;
-        let mut passed = 0;
-        let mut worst: f64 = 0.0;
-        for seed in 0..trials {
-            let h = history(&beats(&[0.0, 1.0, 2.0]), 0.0, 5000 + seed);
-            if let (_, Ok(f)) = prior_and_array(&h, ELEMENT) {
-                worst = worst.max(f.kernel.snr());
-                passed += usize::from(f.kernel.snr() >= 5.0);
-            }
-        }
-        assert!(
-            passed <= 3,
-            "{passed} of {trials} passed (largest SNR {worst})"
-        );
+        // tracker asks twice `fix_snr` of a fix timed so.
+        let (passed, worst) = noise_only_passes(&[0.0, 1.0, 2.0], 5000, |h| {
+            prior_and_array(h, ELEMENT).1.ok().map(|f| f.kernel.snr())
+        });
+        assert!(passed <= 3, "{passed} of 300 passed (largest SNR {worst})");
     }
 
     #[test]
