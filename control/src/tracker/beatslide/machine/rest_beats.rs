@@ -29,9 +29,6 @@ const MAX_BEATS: usize = 8;
 const MIN_BEATS: usize = 3;
 /// False alarm of the test on a still artery.
 const MOTION_FALSE_ALARM: f64 = 1e-3;
-/// Elements from either end of the array within which a beat weaker than this artery's
-/// usual is taken for the flank of an artery beyond that end.
-const END_ELEMENTS: f64 = 1.5;
 /// A one-beat place's error beyond its noise (the kernel's shape, the harmonic fit), m:
 /// the test asks for motion beyond it.
 const BEAT_FLOOR_M: f64 = 1.5e-4;
@@ -69,13 +66,14 @@ impl BeatSlide {
             let Ok(fix) = self.analyse_span(from, to) else {
                 continue;
             };
-            // An artery beyond the array's end shows as its flank: a beat near the end,
-            // weaker than this artery's. (On a draw breathing 3.9 mm at 0.28 Hz the artery
-            // lay 1-3 mm beyond the end for half a window; its beats were fitted at elements
-            // 8.4-8.9 at a quarter to half the usual SNR, and the window's place was
-            // reported 5.3 mm off.)
+            // An artery beyond the array's end shows as its flank: a beat within
+            // `FLANK_ELEMENTS` of the end (as for a sliding fix's report), here at less than
+            // half this artery's usual SNR. (On a draw breathing 3.9 mm at 0.28 Hz the
+            // artery lay 1-3 mm beyond the end for half a window; its beats were fitted at
+            // elements 8.4-8.9 at a quarter to half the usual SNR, and the window's place
+            // was reported 5.3 mm off.)
             let e = fix.kernel.element;
-            let flank = (e < END_ELEMENTS || e > last - END_ELEMENTS)
+            let flank = e.min(last - e) < FLANK_ELEMENTS
                 && fix.kernel.snr() < USUAL_SNR_FRACTION * pulse.snr_per_beat;
             if fix.kernel.at_edge || !(0.0..=last).contains(&e) || flank {
                 off_array = true;
