@@ -229,13 +229,7 @@ fn a_recording_can_be_stopped_and_never_hangs() {
         json!({"procedure": "tactile", "step": "tare", "duration_s": 600.0}),
     );
     let r = c.request("mark", json!({}), T).expect("reply");
-    assert!(
-        r["reason"]
-            .as_str()
-            .unwrap_or("")
-            .contains("calibration recording"),
-        "{r}"
-    );
+    e2e::assert_says(&r, "reason", "calibration recording");
     let r = c
         .request(
             "calibrate",

@@ -307,13 +307,7 @@ fn a_sensor_the_arm_cannot_lift_clear_is_refused_not_measured() {
     call(&mut c, "enable", json!({}));
     let end = run(&mut c, json!({"procedure": "tissue", "points_m": PATCH_M}));
     assert_eq!(end["phase"], "failed", "{end}");
-    assert!(
-        end["reason"]
-            .as_str()
-            .unwrap_or("")
-            .contains("on the tissue already while it rested"),
-        "{end}"
-    );
+    e2e::assert_says(&end, "reason", "on the tissue already while it rested");
     assert!(!dir.path().join("calibration.ron").exists());
     assert_eq!(e2e::state(&mut c), "holding");
     daemon.stop();

@@ -384,17 +384,19 @@ pub fn config_with_calibration_on_small_disk(
     Some((config, small, file))
 }
 
+/// `value[field]` is text that contains `text` (a reason, a fault's cause).
+pub fn assert_says(value: &Value, field: &str, text: &str) {
+    assert!(
+        value[field].as_str().unwrap_or("").contains(text),
+        "{field} does not say {text:?}: {value}"
+    );
+}
+
 /// A calibration that passed but could not be saved (its disk full): not applied, the disk's
 /// error named, and the calibration file as it was (`before`).
 pub fn assert_passed_but_not_saved(result: &Value, file: &Path, before: &[u8]) {
     assert_eq!(result["passed"], true, "{result}");
     assert_eq!(result["applied"], false, "{result}");
-    assert!(
-        result["reason"]
-            .as_str()
-            .unwrap_or("")
-            .contains("No space left"),
-        "{result}"
-    );
+    assert_says(result, "reason", "No space left");
     assert_eq!(std::fs::read(file).expect("still there"), before);
 }
