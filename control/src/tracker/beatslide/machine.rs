@@ -793,6 +793,9 @@ pub(super) fn filter_settings(p: &BeatSlideParams) -> PathFilterSettings {
         slope_prior: 0.3,
         curvature_prior_per_m: p.curvature_prior_per_m,
         curvature_walk: p.curvature_walk,
+        turning_walk: p.turning_walk,
+        turn_onset: p.turn_onset,
+        turn_end: p.turn_end,
         lag_prior_m: p.lag_prior_m,
         lag_prior_sd_m: p.lag_prior_sd_m,
         lag_walk: p.lag_walk,
@@ -857,6 +860,20 @@ fn check_params(p: &BeatSlideParams, fs: f64) -> Result<(), InvalidParams> {
             "load_gate_m must be in [0, 0.01] m, got {}",
             p.load_gate_m
         )));
+    }
+    // A switch of more than one half would make the modes anti-persistent.
+    if !(p.turning_walk.is_finite() && p.turning_walk >= 0.0) {
+        return Err(InvalidParams(format!(
+            "turning_walk must be 0 (one mode) or positive, got {}",
+            p.turning_walk
+        )));
+    }
+    for (name, v) in [("turn_onset", p.turn_onset), ("turn_end", p.turn_end)] {
+        if !(v > 0.0 && v <= 0.5) {
+            return Err(InvalidParams(format!(
+                "{name} must be in (0, 0.5], got {v}"
+            )));
+        }
     }
     // A negative deflection of a whole unit would map every position onto the origin.
     if !(0.0..0.5).contains(&p.tilt_deflection) {
@@ -1155,6 +1172,34 @@ mod tests {
             ..BeatSlideParams::default()
         };
         BeatSlide::new(params, ArrayGeometry::default())
+    }
+
+    #[test]
+    fn the_path_models_modes_are_checked() {
+        let with = |turning_walk: f64, turn_onset: f64, turn_end: f64| {
+            let params = BeatSlideParams {
+                turning_walk,
+                turn_onset,
+                turn_end,
+                ..BeatSlideParams::default()
+            };
+            BeatSlide::new(params, ArrayGeometry::default()).map(|_| ())
+        };
+        // One mode (the default), a turning mode, and a turning walk below the calm one
+        // (an old config that raised `curvature_walk` alone: one mode).
+        assert!(with(0.0, 0.05, 0.3).is_ok());
+        assert!(with(150.0, 0.05, 0.3).is_ok());
+        assert!(with(20.0, 0.05, 0.3).is_ok());
+        for (walk, onset, end, names) in [
+            (f64::NAN, 0.05, 0.3, "turning_walk"),
+            (-1.0, 0.05, 0.3, "turning_walk"),
+            (150.0, 0.0, 0.3, "turn_onset"),
+            (150.0, 0.05, 0.6, "turn_end"),
+            (150.0, f64::NAN, 0.3, "turn_onset"),
+        ] {
+            let e = with(walk, onset, end).expect_err("refused");
+            assert!(e.0.contains(names), "{walk} {onset} {end}: {}", e.0);
+        }
     }
 
     #[test]

@@ -14,6 +14,7 @@ mod history;
 mod machine;
 mod params;
 pub mod path_filter;
+mod path_modes;
 mod tissue_motion;
 
 pub use beat_fix::{BeatFix, BeatMiss, SpatialPrior, analyse_window, spatial_weights};

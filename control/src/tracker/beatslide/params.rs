@@ -55,6 +55,17 @@ pub struct BeatSlideParams {
     /// How fast the curvature may change along the path: SD of its change over one metre,
     /// 1/m per √m (a random walk).
     pub curvature_walk: f64,
+    /// The same for a second, turning mode of the path model, mixed with the calm one
+    /// above by their likelihood (an interacting multiple model, `path_filter`); 0 (the
+    /// default), or anything not above `curvature_walk`, keeps one mode. Opt-in: on the
+    /// scene families a turning mode takes 10-15 % off the beats on winding courses and
+    /// adds as much under breathing and beside lumps (docs/tracker-beatslide.md, "Two
+    /// curvature walks").
+    pub turning_walk: f64,
+    /// With a turning mode: the probability that the path turns from calm to turning
+    /// between two fixes, and back, each in (0, 0.5].
+    pub turn_onset: f64,
+    pub turn_end: f64,
     /// Prior of how far the sensor trails the robot's belief while sliding, m, and its SD:
     /// the rod and incision compliance times the sliding friction (on the seed's bench about
     /// 11 mm/N × 0.4 N). Estimated on line from then on.
@@ -130,6 +141,9 @@ impl Default for BeatSlideParams {
             gate_min_m: 0.002,
             curvature_prior_per_m: 1.0 / 0.06,
             curvature_walk: 45.0,
+            turning_walk: 0.0,
+            turn_onset: 0.05,
+            turn_end: 0.3,
             lag_prior_m: 0.0045,
             lag_prior_sd_m: 0.001,
             lag_walk: 0.003,

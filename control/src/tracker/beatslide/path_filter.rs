@@ -22,12 +22,24 @@
 //! unobserved and harmless; any motion across the artery makes it observable and corrects
 //! the fixes.
 //!
+//! The curvature's walk has two modes, an interacting multiple model (IMM): a calm one
+//! (`curvature_walk`), which extrapolates far on a steady course, and a turning one
+//! (`turning_walk`), which follows a curvature that reverses or a bend. Each keeps its own
+//! estimate (`path_modes`) in the one frame; before each fix they are mixed by how likely
+//! each is to have become the other, each takes the fix, and the fix's likelihood under
+//! each weighs them. What the tracker reads (the path, its prediction, the gate) is their
+//! merged estimate. Each mode must keep its own covariance across fixes: merged after every
+//! fix (GPB1) the two differ by one step's process noise only, which a fix cannot tell
+//! apart (docs/tracker-beatslide.md, "Two curvature walks"). With the two walks equal it
+//! is one Kalman filter, exactly.
+//!
 //! A fix whose innovation exceeds the gate is refused (a lump, a neighbouring vessel). A fix
 //! inside the gate but beyond two predicted SDs widens the path's covariance first (fading
 //! memory): the model was too sure, as at an S-curve's inflection.
 
 use nalgebra::{Matrix4, Vector4};
 
+use super::path_modes::{self, Mode, Transition};
 use crate::frames::SurfacePoint;
 
 /// Normalized innovation squared beyond which the path's covariance is widened.
@@ -42,8 +54,15 @@ pub struct PathFilterSettings {
     pub offset_prior_m: f64,
     pub slope_prior: f64,
     pub curvature_prior_per_m: f64,
-    /// Curvature random walk, 1/m per √m.
+    /// Curvature random walk of the calm mode, 1/m per √m.
     pub curvature_walk: f64,
+    /// Curvature random walk of the turning mode, 1/m per √m; not above `curvature_walk`
+    /// for one mode.
+    pub turning_walk: f64,
+    /// Probability that a calm path starts turning between two fixes, and that a turning
+    /// one calms.
+    pub turn_onset: f64,
+    pub turn_end: f64,
     /// Prior of the sensor's lag behind the belief and its SD, m.
     pub lag_prior_m: f64,
     pub lag_prior_sd_m: f64,
@@ -70,13 +89,20 @@ pub enum PathFilterError {
 pub struct PathFilter {
     origin: SurfacePoint,
     heading_rad: f64,
-    /// (a, b, c, L).
+    /// (a, b, c, L), the modes merged.
     x: Vector4<f64>,
     p: Matrix4<f64>,
+    /// The calm and the turning mode's own estimates, in the same frame.
+    modes: [Mode; 2],
+    /// Their probabilities after the last fix.
+    weights: [f64; 2],
     settings: PathFilterSettings,
     /// Fixes move only the path, not the lag ([`Self::hold_lag`]).
     lag_held: bool,
 }
+
+/// The turning mode's probability before any fix.
+const TURNING_PRIOR: f64 = 0.5;
 
 /// A fix: where it was reported (believed coordinates) and the lag's direction then.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -140,9 +166,7 @@ impl PathFilter {
         } else {
             return Err(PathFilterError::NoDirection);
         };
-        let mut f = Self {
-            origin: to,
-            heading_rad,
+        let prior = Mode {
             x: Vector4::new(0.0, 0.0, 0.0, settings.lag_prior_m),
             p: Matrix4::from_diagonal(&Vector4::new(
                 settings.offset_prior_m.powi(2),
@@ -150,14 +174,25 @@ impl PathFilter {
                 settings.curvature_prior_per_m.powi(2),
                 settings.lag_prior_sd_m.powi(2),
             )),
+        };
+        let mut f = Self {
+            origin: to,
+            heading_rad,
+            x: prior.x,
+            p: prior.p,
+            modes: [prior; 2],
+            weights: [1.0 - TURNING_PRIOR, TURNING_PRIOR],
             settings,
             lag_held: false,
         };
         for o in observations {
             let (s, z) = f.to_local(o.point);
-            let h_lag = f.lateral(o.lag_dir);
-            f.measure(s, z, o.sd_m, h_lag);
+            let h = Vector4::new(1.0, s, 0.5 * s * s, f.lateral(o.lag_dir));
+            for m in &mut f.modes {
+                m.measure_along(h, z, o.sd_m);
+            }
         }
+        f.merge();
         f.reanchor();
         Ok(f)
     }
@@ -238,9 +273,58 @@ impl PathFilter {
         }
     }
 
-    /// Lateral variance the curvature walk adds over `d` of path.
+    /// Lateral variance the curvature walk adds over `d` of path, the modes weighed by how
+    /// likely each is at the next fix.
     fn walk_variance(&self, d: f64) -> f64 {
-        self.settings.curvature_walk.powi(2) * d.powi(5) / 20.0
+        let [q_calm, q_turning] = self.walks().map(|w| w * w);
+        let q = if self.two_modes() {
+            let [calm, turning] = self.mode_prior();
+            calm * q_calm + turning * q_turning
+        } else {
+            q_calm
+        };
+        q * d.powi(5) / 20.0
+    }
+
+    /// The two modes' curvature walks (calm, turning).
+    fn walks(&self) -> [f64; 2] {
+        let calm = self.settings.curvature_walk;
+        [calm, self.settings.turning_walk.max(calm)]
+    }
+
+    /// Whether the turning mode differs from the calm one (else this is one Kalman filter,
+    /// exactly).
+    fn two_modes(&self) -> bool {
+        let [calm, turning] = self.walks();
+        turning > calm
+    }
+
+    /// How the modes change between two fixes.
+    fn transition(&self) -> Transition {
+        let onset = self.settings.turn_onset.clamp(0.0, 1.0);
+        let end = self.settings.turn_end.clamp(0.0, 1.0);
+        [[1.0 - onset, onset], [end, 1.0 - end]]
+    }
+
+    /// The modes' probabilities at the next fix.
+    fn mode_prior(&self) -> [f64; 2] {
+        path_modes::predicted_weights(self.weights, &self.transition())
+    }
+
+    /// Probability that the path is turning (the turning mode's), after the last fix.
+    pub fn turning_probability(&self) -> f64 {
+        self.weights[1]
+    }
+
+    /// The merged estimate from the modes (the calm one's alone with one mode).
+    fn merge(&mut self) {
+        let m = if self.two_modes() {
+            path_modes::merge(&self.modes, self.weights)
+        } else {
+            self.modes[0]
+        };
+        self.x = m.x;
+        self.p = m.p;
     }
 
     /// Fold in a fix: the frame moves to the fix's place on the path. Refused (and the
@@ -255,8 +339,13 @@ impl PathFilter {
         {
             return Err(PathFilterError::NonFinite);
         }
+        let (s, _) = self.to_local(self.corrected(o));
         let mut moved = *self;
-        let (s, _) = moved.to_local(moved.corrected(o));
+        let prior = self.mode_prior();
+        if self.two_modes() {
+            moved.modes = path_modes::mixed(&self.modes, self.weights, &self.transition());
+            moved.weights = prior;
+        }
         moved.advance(s);
         let (s, z) = moved.to_local(p);
         let h = Vector4::new(1.0, s, 0.5 * s * s, moved.lateral(o.lag_dir));
@@ -268,6 +357,13 @@ impl PathFilter {
                 innovation_m: innovation,
                 gate_m: gate,
             });
+        }
+        if moved.two_modes() {
+            let innovations = moved.modes.map(|m| z - h.dot(&m.x));
+            let vars = moved
+                .modes
+                .map(|m| (h.transpose() * m.p * h)[0] + sd_m * sd_m);
+            moved.weights = path_modes::posterior(prior, innovations, vars);
         }
         // Fading memory: an innovation well beyond what the model predicted means the path
         // has changed (an S-curve's inflection): widen the path's uncertainty so that the
@@ -283,7 +379,7 @@ impl PathFilter {
             // family), so it is held here and this fix moves only the path.
             moved.measure_path_only(s, z, sd_m, h[3]);
         } else {
-            moved.measure(s, z, sd_m, h[3]);
+            moved.measure(h, z, sd_m);
         }
         moved.reanchor();
         *self = moved;
@@ -297,19 +393,23 @@ impl PathFilter {
     pub fn inflate(&mut self, factor: f64) {
         if factor.is_finite() && factor >= 1.0 {
             let d = Matrix4::from_diagonal(&Vector4::new(factor, factor, factor, 1.0));
-            self.p = d * self.p * d;
+            for m in &mut self.modes {
+                m.p = d * m.p * d;
+            }
+            self.merge();
         }
     }
 
     /// A fix that updates the path but not the lag: the lag's estimate stays, its
     /// correlation with the path is dropped, and its current value is taken off the fix.
     fn measure_path_only(&mut self, s: f64, z: f64, sd_m: f64, h_lag: f64) {
-        for i in 0..3 {
-            self.p[(i, 3)] = 0.0;
-            self.p[(3, i)] = 0.0;
+        let h = Vector4::new(1.0, s, 0.5 * s * s, 0.0);
+        for m in &mut self.modes {
+            m.decouple_lag();
+            let lag = m.x[3];
+            m.measure_along(h, z - lag * h_lag, sd_m);
         }
-        let lag = self.x[3];
-        self.measure(s, z - lag * h_lag, sd_m, 0.0);
+        self.merge();
     }
 
     /// A direct reading of the lag, with its SD (the arm's load: where it puts the sensor
@@ -322,32 +422,23 @@ impl PathFilter {
         if !(lag_m.is_finite() && sd_m.is_finite() && sd_m > 0.0) {
             return;
         }
-        for i in 0..3 {
-            self.p[(i, 3)] = 0.0;
-            self.p[(3, i)] = 0.0;
+        for m in &mut self.modes {
+            m.decouple_lag();
+            m.measure_along(Vector4::new(0.0, 0.0, 0.0, 1.0), lag_m, sd_m);
         }
-        self.measure_along(Vector4::new(0.0, 0.0, 0.0, 1.0), lag_m, sd_m);
+        self.merge();
     }
 
-    fn measure(&mut self, s: f64, z: f64, sd_m: f64, h_lag: f64) {
-        self.measure_along(Vector4::new(1.0, s, 0.5 * s * s, h_lag), z, sd_m);
-    }
-
-    /// The Kalman update for one scalar reading `z = h·x` with SD `sd_m`.
-    fn measure_along(&mut self, h: Vector4<f64>, z: f64, sd_m: f64) {
-        let ph = self.p * h;
-        let var = h.dot(&ph) + sd_m * sd_m;
-        if !(var.is_finite() && var > 0.0) {
-            return;
+    /// Every mode takes the reading `z = h·x` with SD `sd_m`.
+    fn measure(&mut self, h: Vector4<f64>, z: f64, sd_m: f64) {
+        for m in &mut self.modes {
+            m.measure_along(h, z, sd_m);
         }
-        let k = ph / var;
-        self.x += k * (z - h.dot(&self.x));
-        // Joseph form keeps P symmetric and positive.
-        let ikh = Matrix4::identity() - k * h.transpose();
-        self.p = ikh * self.p * ikh.transpose() + k * k.transpose() * (sd_m * sd_m);
+        self.merge();
     }
 
-    /// Move the origin `d` along the path (with the curvature walk's noise), then re-anchor.
+    /// Move the origin `d` along the path (each mode with its curvature walk's noise), then
+    /// re-anchor.
     fn advance(&mut self, d: f64) {
         if !d.is_finite() || d == 0.0 {
             return;
@@ -371,42 +462,57 @@ impl PathFilter {
             1.0,
         );
         let a = d.abs();
-        let q = self.settings.curvature_walk.powi(2);
-        let mut qm = Matrix4::zeros();
         let block = [
             [a.powi(5) / 20.0, a.powi(4) / 8.0, a.powi(3) / 6.0],
             [a.powi(4) / 8.0, a.powi(3) / 3.0, a * a / 2.0],
             [a.powi(3) / 6.0, a * a / 2.0, a],
         ];
-        for (i, row) in block.iter().enumerate() {
-            for (j, v) in row.iter().enumerate() {
-                qm[(i, j)] = q * v;
-            }
-        }
-        qm[(3, 3)] = self.settings.lag_walk.powi(2) * a;
-        // The new origin is on the frame's axis at `d`; the state now describes the path
+        let lag_noise = self.settings.lag_walk.powi(2) * a;
+        // The new origin is on the frame's axis at `d`; the states now describe the path
         // about it.
         self.origin = self.point_at(d, 0.0);
-        self.x = f * self.x;
-        self.p = f * self.p * f.transpose() + qm;
+        let walks = self.walks();
+        for (m, walk) in self.modes.iter_mut().zip(walks) {
+            let q = walk * walk;
+            let mut qm = Matrix4::zeros();
+            for (i, row) in block.iter().enumerate() {
+                for (j, v) in row.iter().enumerate() {
+                    qm[(i, j)] = q * v;
+                }
+            }
+            qm[(3, 3)] = lag_noise;
+            m.x = f * m.x;
+            m.p = f * m.p * f.transpose() + qm;
+        }
+        self.merge();
         self.reanchor();
     }
 
     /// Put the frame on the estimate: the origin moves to the path point `a` to the side,
     /// the heading turns by `atan b`; the state becomes (0, 0, curvature).
     fn reanchor(&mut self) {
-        let (a, b, c, lag) = (self.x[0], self.x[1], self.x[2], self.x[3]);
+        let (a, b) = (self.x[0], self.x[1]);
         self.origin = self.point_at(0.0, a);
         let beta = b.atan();
         let cos = beta.cos();
         self.heading_rad += beta;
-        let kappa = c * cos.powi(3);
-        self.x = Vector4::new(0.0, 0.0, kappa, lag);
+        // Each mode moves with the frame, linearized about the merged estimate (the modes
+        // lie within millimetres and hundredths of a radian of it), so that the merged
+        // estimate becomes (0, 0, κ, L) as with one mode.
         let j = Matrix4::from_diagonal(&Vector4::new(cos, cos * cos, cos.powi(3), 1.0));
-        self.p = j * self.p * j.transpose();
-        self.p = 0.5 * (self.p + self.p.transpose());
+        let shift = Vector4::new(a, b, 0.0, 0.0);
+        for m in &mut self.modes {
+            m.x = j * (m.x - shift);
+            m.p = j * m.p * j.transpose();
+            m.p = 0.5 * (m.p + m.p.transpose());
+        }
+        self.merge();
     }
 }
+
+#[cfg(test)]
+#[path = "path_filter_modes_tests.rs"]
+mod modes_tests;
 
 #[cfg(test)]
 mod tests {
@@ -418,6 +524,9 @@ mod tests {
             slope_prior: 0.5,
             curvature_prior_per_m: 1.0 / 0.06,
             curvature_walk: 30.0,
+            turning_walk: 30.0,
+            turn_onset: 0.1,
+            turn_end: 0.1,
             lag_prior_m: 0.0,
             lag_prior_sd_m: 1e-6,
             lag_walk: 1e-6,
