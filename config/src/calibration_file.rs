@@ -26,6 +26,10 @@ pub struct CalibrationFile {
     /// The tissue frame from touched points; absent: `robot.tissue` as configured.
     #[serde(default)]
     pub tissue: Option<TissueRecord>,
+    /// The pivot (incision) from touches on a level plate; absent: `robot.pivot` as
+    /// configured (files written before the pivot procedure have none).
+    #[serde(default)]
+    pub pivot: Option<PivotRecord>,
 }
 
 impl Default for CalibrationFile {
@@ -34,6 +38,7 @@ impl Default for CalibrationFile {
             version: CALIBRATION_VERSION,
             tactile: None,
             tissue: None,
+            pivot: None,
         }
     }
 }
@@ -60,6 +65,35 @@ pub struct TissueRecord {
     /// The fitted surface's tilt from level, rad.
     pub tilt_rad: f64,
     /// RMS and largest distance of the touched points from the fitted plane, m.
+    pub rms_residual_m: f64,
+    pub max_residual_m: f64,
+    pub checks: Vec<CheckRecord>,
+    /// Every check passed; the daemon applies only a record that passed.
+    pub passed: bool,
+}
+
+/// One pivot calibration as measured: the touches of a level plate, the fit and its checks.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PivotRecord {
+    /// When the last touch ended, UTC.
+    pub measured_utc: String,
+    /// The touched points (sensor centre where the surface was met), tissue frame as the
+    /// kinematics believed them through `prior_pivot_in_base_m` and `placement`, m.
+    pub touched_in_tissue_m: Vec<[f64; 3]>,
+    /// The tissue frame the touches were read in.
+    pub placement: TissuePlacement,
+    /// The pivot the touches were made through (the config's, or an earlier calibration's),
+    /// base frame, m.
+    pub prior_pivot_in_base_m: [f64; 3],
+    /// The fitted pivot: what the kinematics use once it passed, base frame, m.
+    pub pivot_in_base_m: [f64; 3],
+    /// Its base `x` and `z` offset from the prior, and the standard error of each, m.
+    pub offset_m: [f64; 2],
+    pub standard_error_m: [f64; 2],
+    /// The level plate's height, base frame, m.
+    pub plate_height_m: f64,
+    /// RMS and largest height residual of the touches about the level plate, m.
     pub rms_residual_m: f64,
     pub max_residual_m: f64,
     pub checks: Vec<CheckRecord>,
@@ -151,6 +185,29 @@ impl Validate for CalibrationFile {
                 );
                 v.check(
                     !t.passed || t.checks.iter().all(|c| c.passed),
+                    "passed",
+                    "is true, but a check failed",
+                );
+            });
+        }
+        if let Some(p) = &self.pivot {
+            v.at("pivot", |v| {
+                v.check(!p.measured_utc.is_empty(), "measured_utc", "must say when");
+                v.check(
+                    p.pivot_in_base_m.iter().all(|x| x.is_finite()),
+                    "pivot_in_base_m",
+                    "must be finite",
+                );
+                v.check(
+                    p.touched_in_tissue_m.len() >= control::calibration::level_pivot::MIN_TOUCHES,
+                    "touched_in_tissue_m",
+                    format!(
+                        "needs at least {} touched points",
+                        control::calibration::level_pivot::MIN_TOUCHES
+                    ),
+                );
+                v.check(
+                    !p.passed || p.checks.iter().all(|c| c.passed),
                     "passed",
                     "is true, but a check failed",
                 );

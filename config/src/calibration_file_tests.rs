@@ -57,6 +57,94 @@ fn tissue() -> TissueRecord {
     }
 }
 
+fn pivot() -> PivotRecord {
+    PivotRecord {
+        measured_utc: "2026-11-28T12-00-00Z".into(),
+        touched_in_tissue_m: vec![
+            [-0.08, 0.0011, 0.045],
+            [0.08, 0.0012, 0.045],
+            [-0.04, -0.0003, 0.01],
+            [0.04, -0.0002, 0.01],
+            [0.0, 0.0009, 0.04],
+        ],
+        placement: TissuePlacement {
+            origin_in_base_m: [0.0, -0.3745, 0.055],
+            yaw_rad: 0.0,
+        },
+        prior_pivot_in_base_m: [0.0, -0.09, 0.055],
+        pivot_in_base_m: [0.0001, -0.09, 0.0599],
+        offset_m: [0.0001, 0.0049],
+        standard_error_m: [0.00002, 0.00003],
+        plate_height_m: -0.3745,
+        rms_residual_m: 0.00004,
+        max_residual_m: 0.00007,
+        checks: vec![],
+        passed: true,
+    }
+}
+
+#[test]
+fn a_file_from_before_the_pivot_procedure_still_loads() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("calibration.ron");
+    let old = CalibrationFile {
+        tactile: Some(tactile()),
+        tissue: Some(tissue()),
+        ..CalibrationFile::default()
+    };
+    // As a daemon without the pivot procedure wrote it: no `pivot` field at all.
+    let text = ron::ser::to_string_pretty(&old, ron::ser::PrettyConfig::default()).expect("ron");
+    let text: String = text
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("pivot:"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(!text.contains("pivot"), "{text}");
+    std::fs::write(&path, text).expect("write");
+    let f = load(&path).expect("loads").expect("present").value;
+    assert_eq!(f, old);
+    assert_eq!(f.pivot, None);
+}
+
+#[test]
+fn a_pivot_record_that_cannot_be_used_is_refused_naming_the_field() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("calibration.ron");
+    for (change, field) in [
+        (
+            (|p: &mut PivotRecord| p.touched_in_tissue_m.truncate(4)) as fn(&mut PivotRecord),
+            "pivot.touched_in_tissue_m",
+        ),
+        (
+            |p: &mut PivotRecord| p.pivot_in_base_m[2] = f64::INFINITY,
+            "pivot.pivot_in_base_m",
+        ),
+        (
+            |p: &mut PivotRecord| {
+                p.checks = vec![CheckRecord {
+                    quantity: "level plate RMS residual".into(),
+                    value: 1e-3,
+                    bound: "at_most".into(),
+                    limit: 5e-4,
+                    unit: "m".into(),
+                    passed: false,
+                }]
+            },
+            "pivot.passed",
+        ),
+    ] {
+        let mut p = pivot();
+        change(&mut p);
+        let file = CalibrationFile {
+            pivot: Some(p),
+            ..CalibrationFile::default()
+        };
+        std::fs::write(&path, ron::ser::to_string(&file).expect("ron")).expect("write");
+        let e = load(&path).expect_err(field).to_string();
+        assert!(e.contains(field), "{field}: {e}");
+    }
+}
+
 #[test]
 fn a_tissue_record_that_cannot_be_used_is_refused_naming_the_field() {
     let dir = tempfile::tempdir().expect("tmp");
@@ -67,6 +155,7 @@ fn a_tissue_record_that_cannot_be_used_is_refused_naming_the_field() {
         version: CALIBRATION_VERSION,
         tactile: None,
         tissue: Some(t),
+        pivot: None,
     };
     save(&path, &file).expect("saved");
     let e = load(&path).expect_err("two points").to_string();
@@ -79,6 +168,7 @@ fn a_tissue_record_that_cannot_be_used_is_refused_naming_the_field() {
             version: CALIBRATION_VERSION,
             tactile: None,
             tissue: Some(t),
+            pivot: None,
         })
         .expect("ron"),
     )
@@ -106,6 +196,7 @@ fn a_saved_file_loads_back_the_same() {
         version: CALIBRATION_VERSION,
         tactile: Some(tactile()),
         tissue: Some(tissue()),
+        pivot: Some(pivot()),
     };
     save(&path, &file).expect("saved, making the folder");
     let back = load(&path).expect("loads").expect("present");
@@ -127,6 +218,7 @@ fn a_bad_file_is_refused_naming_the_field() {
             version: CALIBRATION_VERSION,
             tactile: Some(t),
             tissue: None,
+            pivot: None,
         },
     )
     .expect("saved");
@@ -144,6 +236,7 @@ fn a_bad_file_is_refused_naming_the_field() {
             version: CALIBRATION_VERSION,
             tactile: Some(t),
             tissue: None,
+            pivot: None,
         },
     )
     .expect("saved");
@@ -198,6 +291,7 @@ fn a_full_disk_leaves_the_old_file_whole() {
         version: CALIBRATION_VERSION,
         tactile: Some(tactile()),
         tissue: None,
+        pivot: None,
     };
     save(&path, &old).expect("room for the first");
     let before = std::fs::read(&path).expect("bytes");

@@ -255,6 +255,23 @@ fn calibration_at_start(
             Some(r)
         }
     };
+    let pivot = match file.pivot {
+        None => None,
+        Some(r) => {
+            let p = crate::supervisor::calibration::usable_pivot(&r).map_err(|e| {
+                StartError::Control(format!("calibration file {}: {e}", settings.file.display()))
+            })?;
+            tracing::info!(
+                "pivot of {} from {} in use: {:?} m (moved {:+.2}, {:+.2} mm in base x, z)",
+                r.measured_utc,
+                settings.file.display(),
+                p,
+                r.offset_m[0] * 1e3,
+                r.offset_m[1] * 1e3
+            );
+            Some(r)
+        }
+    };
     let tactile = match file.tactile {
         None => {
             tracing::info!(
@@ -282,7 +299,7 @@ fn calibration_at_start(
             }
         },
     };
-    Ok(Calibration::new(settings, tactile, tissue, bench))
+    Ok(Calibration::new(settings, tactile, tissue, pivot, bench))
 }
 
 /// Take the configuration's instance lock (which also checks its directories).
@@ -384,9 +401,23 @@ impl Daemon {
 
         let info = opened.info.clone();
         let calibration = calibration_at_start(c, info.time_scale, opened.array_bench)?;
-        // A calibrated tissue frame replaces the configured one for the kinematics (the
-        // simulator's truth stays where the config and the scene put it).
+        // A calibrated pivot and tissue frame replace the configured ones for the kinematics
+        // (the simulator's truth stays where the config and the scene put it).
         let mut arm = c.robot.arm_model().ok();
+        if let Some(r) = calibration.pivot_record() {
+            let pivot = control::kinematics::PivotGeometry {
+                pivot_in_base_m: r.pivot_in_base_m,
+                ..c.robot.pivot
+            };
+            servo.set_pivot(0.0, pivot, None).map_err(|e| {
+                StartError::Control(format!(
+                    "calibration file {}: its pivot cannot be used: {}",
+                    c.calibration.file,
+                    e.describe()
+                ))
+            })?;
+            arm = arm.and_then(|a| a.with_pivot(pivot).ok());
+        }
         if let Some(r) = calibration.tissue_record() {
             servo.set_placement(0.0, r.placement, None).map_err(|e| {
                 StartError::Control(format!(

@@ -62,6 +62,9 @@ struct DynamicArm {
     gravity: PhantomGravity,
     saturation: [f64; 3],
     enabled: bool,
+    /// The operator's hand holds the joints still until the arm is first powered
+    /// (`Scene::held_until_enabled`).
+    held: bool,
     command: JointTorques,
     /// The latest contact solution, for frames and truth.
     normal_n: f64,
@@ -313,6 +316,8 @@ impl Bench {
     pub fn set_enabled(&mut self, on: bool) {
         if let Arm::Dynamic(a) = &mut self.arm {
             a.enabled = on;
+            // Powered, the arm holds itself: the hand lets go for good.
+            a.held &= !on;
             if !on {
                 a.command = JointTorques::ZERO;
             }
@@ -560,6 +565,7 @@ impl DynamicArm {
             gravity: PhantomGravity::new(&masses),
             saturation: spec.torque_saturation_nm,
             enabled: false,
+            held: scene.held_until_enabled,
             command: JointTorques::ZERO,
             normal_n: 0.0,
             indentation_m: 0.0,
@@ -696,7 +702,9 @@ impl DynamicArm {
             let m_gimbal = uu * axial + (Matrix3::identity() - uu) * lateral;
             extra = jac.transpose() * m_gimbal * jac;
         }
-        self.joints.step(&tau, &extra, dt);
+        if !self.held {
+            self.joints.step(&tau, &extra, dt);
+        }
         self.encoders.sample(&self.joints.q, dt);
     }
 }

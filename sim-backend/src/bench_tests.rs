@@ -485,3 +485,50 @@ fn a_misplaced_tissue_is_where_the_scene_says_and_the_robot_believes_otherwise()
         truth.z_m
     );
 }
+
+/// With the added mass off the unpowered arm does not rest where the scene starts it: the
+/// links' weight lifts the tip off the tissue and the arm falls against its stops, outside
+/// the software limits (where the daemon refuses to enable). Held until enabled, it stays at
+/// the start and is free once powered.
+#[test]
+fn an_unweighted_arm_falls_to_its_stops_unless_held_until_enabled() {
+    let config = sim_config();
+    let limits = config.robot.joint_limits;
+    let outside =
+        |q: [f64; 3]| (0..3).any(|i| q[i] < limits.min_rad[i] || q[i] > limits.max_rad[i]);
+    let mut dropped = scene("pivot-off-arc-145-unweighted.ron");
+    dropped.held_until_enabled = false;
+    let mut bench = Bench::new(&dropped, &config, 1, false).expect("bench");
+    for _ in 0..10_000 {
+        bench.step();
+    }
+    let q = bench.read_joints().position_rad;
+    assert!(
+        outside(q),
+        "the unweighted arm rested inside its limits: {q:?}"
+    );
+
+    let held = scene("pivot-off-arc-145-unweighted.ron");
+    assert!(held.held_until_enabled);
+    let mut bench = Bench::new(&held, &config, 1, false).expect("bench");
+    let start = bench.read_joints().position_rad;
+    for _ in 0..10_000 {
+        bench.step();
+    }
+    assert_eq!(
+        bench.read_joints().position_rad,
+        start,
+        "the hand let go unpowered"
+    );
+    let mut d = Driver::new(&config);
+    d.start(&mut bench);
+    d.run(&mut bench, 2.0);
+    d.move_by(&mut bench, 0.01, 0.0);
+    d.run(&mut bench, 3.0);
+    let q = bench.read_joints().position_rad;
+    assert!(!outside(q), "powered, the arm left its limits: {q:?}");
+    assert!(
+        (q[0] - start[0]).abs() > 1e-3,
+        "powered, the arm did not move: {q:?} from {start:?}"
+    );
+}

@@ -71,6 +71,9 @@ pub struct Calibrated {
     /// The tissue frame the kinematics use in place of `robot.tissue` (the scene's truth
     /// stays where the config and the scene put it).
     pub tissue: Option<control::frames::TissuePlacement>,
+    /// The pivot (base frame, m) the kinematics use in place of `robot.pivot`'s (the
+    /// scene's true incision stays where the config and the scene put it).
+    pub pivot_in_base_m: Option<[f64; 3]>,
 }
 
 /// [`run_trial`] with a calibration applied.
@@ -184,10 +187,16 @@ impl Lockstep {
                 .map_err(|e| SimError::Config(format!("tactile calibration: {e}")))?,
             None => config.sensor,
         };
+        let pivot = control::kinematics::PivotGeometry {
+            pivot_in_base_m: calibrated
+                .pivot_in_base_m
+                .unwrap_or(robot.pivot.pivot_in_base_m),
+            ..robot.pivot
+        };
         let model = ArmModel::new(
             robot.phantom,
             robot.joint_limits,
-            robot.pivot,
+            pivot,
             calibrated.tissue.unwrap_or(robot.tissue),
             robot.sensor_offset_m,
         )?;
@@ -213,7 +222,7 @@ impl Lockstep {
             gravity: ArmGravity::new(
                 &config.robot.link_masses,
                 &config.robot.phantom,
-                &config.robot.pivot,
+                &pivot,
                 instrument(config, scene).as_ref(),
             ),
             tracker,

@@ -20,6 +20,11 @@ use crate::kinematics::{ArmModel, KinematicsError, PivotGeometry};
 /// Fewest touches: three unknowns, and a residual to judge them by.
 pub const MIN_TOUCHES: usize = 5;
 
+/// Least RMS spread of the touches across their widest direction on the plate, m: touches
+/// along one line see the pivot's offset only along that line. 10 mm over the seed's patch
+/// (±140 mm) is a narrow strip still; the standard errors judge the rest.
+pub const MIN_LAYOUT_SPREAD_M: f64 = 0.01;
+
 /// The normal matrix's condition above which the touches do not fix the pivot both ways
 /// (all along one line, or all under the pivot).
 const MAX_CONDITION: f64 = 1e10;
@@ -35,6 +40,13 @@ pub enum LevelPivotError {
         index: usize,
         source: KinematicsError,
     },
+    #[error(
+        "the touch points lie along one line ({:.1} mm RMS across it, at least {:.0} mm): \
+         spread them over the plate in x and in z",
+        across_m * 1e3,
+        MIN_LAYOUT_SPREAD_M * 1e3
+    )]
+    Collinear { across_m: f64 },
     #[error(
         "the touches do not fix the pivot both ways (condition {condition:.1e}): touch points \
          spread across the plate in x and in z"
@@ -88,6 +100,40 @@ impl LevelPivotFit {
     }
 }
 
+/// Refuse touch points (`[x, z]` on the plate) that lie along one line: their RMS spread
+/// across their widest direction must be at least [`MIN_LAYOUT_SPREAD_M`]. Checked before
+/// the arm moves (the daemon's procedure) and again by the fit.
+pub fn check_layout(points_xz: &[[f64; 2]]) -> Result<(), LevelPivotError> {
+    if points_xz.len() < MIN_TOUCHES {
+        return Err(LevelPivotError::TooFewTouches {
+            touches: points_xz.len(),
+        });
+    }
+    if let Some(index) = points_xz
+        .iter()
+        .position(|p| !(p[0].is_finite() && p[1].is_finite()))
+    {
+        return Err(LevelPivotError::NonFinite { index });
+    }
+    let n = points_xz.len() as f64;
+    let mean = |i: usize| points_xz.iter().map(|p| p[i]).sum::<f64>() / n;
+    let (mx, mz) = (mean(0), mean(1));
+    let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
+    for p in points_xz {
+        let (dx, dz) = (p[0] - mx, p[1] - mz);
+        a += dx * dx / n;
+        b += dx * dz / n;
+        c += dz * dz / n;
+    }
+    // The smaller eigenvalue of the 2 × 2 scatter: the mean square across the widest line.
+    let across2 = (a + c) / 2.0 - (((a - c) / 2.0).powi(2) + b * b).sqrt();
+    let across_m = across2.max(0.0).sqrt();
+    if across_m < MIN_LAYOUT_SPREAD_M {
+        return Err(LevelPivotError::Collinear { across_m });
+    }
+    Ok(())
+}
+
 /// Heights of the touches (base frame) through `model` with its pivot moved by `dx`, `dz`.
 fn heights(
     model: &ArmModel,
@@ -135,6 +181,8 @@ pub fn fit_pivot_level(
                 .map_err(|source| LevelPivotError::Kinematics { index, source })
         })
         .collect::<Result<_, _>>()?;
+    let layout: Vec<[f64; 2]> = touched.iter().map(|p| [p.x, p.z]).collect();
+    check_layout(&layout)?;
     let kin = |(index, source)| LevelPivotError::Kinematics { index, source };
     let step = 1e-6;
     let (mut dx, mut dz) = (0.0, 0.0);

@@ -110,7 +110,7 @@ fn touches_that_cannot_fix_the_pivot_are_refused() {
         .collect();
     assert!(matches!(
         fit_pivot_level(&m, &line),
-        Err(LevelPivotError::Degenerate { .. })
+        Err(LevelPivotError::Collinear { across_m }) if across_m < 1e-9
     ));
     assert!(matches!(
         fit_pivot_level(&m, &line[..4]),
@@ -128,4 +128,42 @@ fn touches_that_cannot_fix_the_pivot_are_refused() {
         fit_pivot_level(&m, &far),
         Err(LevelPivotError::Kinematics { index: 1, .. })
     ));
+}
+
+#[test]
+fn a_touch_layout_along_one_line_is_refused_before_anything_moves() {
+    // The tissue procedure's patch: spread both ways.
+    let patch = [
+        [-0.08, 0.045],
+        [0.08, 0.045],
+        [-0.04, 0.01],
+        [0.04, 0.01],
+        [0.0, 0.04],
+    ];
+    assert_eq!(check_layout(&patch), Ok(()));
+    // A diagonal strip 8 mm wide (RMS 4 mm across): along one line, whatever its direction.
+    let strip: Vec<[f64; 2]> = (0..6)
+        .map(|i| {
+            let t = i as f64 * 0.02 - 0.05;
+            let side = if i % 2 == 0 { 0.004 } else { -0.004 };
+            [t + side * 0.6, t - side * 0.8]
+        })
+        .collect();
+    match check_layout(&strip) {
+        Err(e @ LevelPivotError::Collinear { across_m }) => {
+            assert!((across_m - 0.004).abs() < 1e-3, "{across_m}");
+            assert!(e.to_string().contains("along one line"), "{e}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(
+        check_layout(&patch[..4]),
+        Err(LevelPivotError::TooFewTouches { touches: 4 })
+    );
+    let mut bad = patch;
+    bad[3][1] = f64::NAN;
+    assert_eq!(
+        check_layout(&bad),
+        Err(LevelPivotError::NonFinite { index: 3 })
+    );
 }

@@ -18,7 +18,7 @@ pub mod touch;
 #[cfg(test)]
 mod kinematics_tests;
 
-pub use level_pivot::{LevelPivotError, LevelPivotFit, fit_pivot_level};
+pub use level_pivot::{LevelPivotError, LevelPivotFit, check_layout, fit_pivot_level};
 pub use pivot::{PivotFit, PivotFitError, RodLine, fit_pivot};
 pub use tactile::{
     ElementCalibration, ElementStatus, Recording, TactileCalibration, TactileCalibrationError,

@@ -190,6 +190,16 @@ struct InstrumentLoad {
 }
 
 impl ArmGravity {
+    /// The same weights brought to the joints through `pivot` (a calibrated incision).
+    pub fn with_pivot(&self, pivot: &PivotGeometry) -> Self {
+        Self {
+            bodies: self.bodies,
+            instrument: self
+                .instrument
+                .map(|i| InstrumentLoad { pivot: *pivot, ..i }),
+        }
+    }
+
     /// `instrument: None` (or one no heavier than its contact load): the arm's bodies only,
     /// as [`PhantomGravity`].
     pub fn new(

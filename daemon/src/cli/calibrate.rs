@@ -26,8 +26,10 @@ pub enum Procedure {
         #[command(subcommand)]
         step: TactileStep,
     },
-    /// The pivot (incision) from several rod poses (not built yet).
-    Pivot(Plain),
+    /// The pivot (incision): touch a level plate at five or more points spread in x and z
+    /// and fit where the pivot lies across the base; the arm moves on its own (take the
+    /// added mass off first).
+    Pivot(PivotArgs),
     /// The tissue frame: touch the surface at three or more points (and two along the
     /// artery) and fit where the tissue lies; the arm moves on its own.
     Tissue(TissueArgs),
@@ -59,6 +61,17 @@ pub struct TissueArgs {
         requires = "course"
     )]
     pub course_lateral_mm: f64,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct PivotArgs {
+    #[command(flatten)]
+    pub conn: Conn,
+    /// A point of the level plate to touch, mm, tissue frame as configured: x,z. Five or
+    /// more, spread over the plate in x and in z (repeat the flag).
+    #[arg(long = "point", value_name = "X,Z", allow_hyphen_values = true, required = true,
+          value_parser = point_mm)]
+    pub points: Vec<[f64; 2]>,
 }
 
 fn point_mm(s: &str) -> Result<[f64; 2], String> {
@@ -115,7 +128,10 @@ pub fn request(p: &Procedure) -> (&Conn, Value) {
             json!({"procedure": "tactile", "step": "load",
                 "load_per_element_n": load_per_element_n, "duration_s": duration_s}),
         ),
-        Procedure::Pivot(p) => (&p.conn, json!({"procedure": "pivot"})),
+        Procedure::Pivot(p) => (
+            &p.conn,
+            json!({"procedure": "pivot", "step": "touch", "points_m": p.points}),
+        ),
         Procedure::Tissue(t) => (
             &t.conn,
             json!({"procedure": "tissue", "step": "touch", "points_m": t.points,
@@ -163,7 +179,7 @@ fn run_on(c: &mut Client, req: &Value, raw: bool) -> Result<ExitCode, String> {
         None => Duration::from_secs_f64(reply["duration_s"].as_f64().unwrap_or(60.0) * 20.0 + 30.0),
     };
     if !raw {
-        if procedure == "tissue" {
+        if procedure == "tissue" || procedure == "pivot" {
             eprintln!("touching {} points ...", reply["points"]);
         } else {
             eprintln!(
@@ -262,6 +278,27 @@ fn print_tissue(e: &Value) {
     );
 }
 
+/// The pivot's result: millimetres for people.
+fn print_pivot(e: &Value) {
+    let p = &e["pivot_in_base_m"];
+    outln!(
+        "pivot: ({:.2}, {:.2}, {:.2}) mm in the base frame, moved {:+.2} ± {:.2} mm in x and {:+.2} ± {:.2} mm in z from the one in use",
+        num(&p[0]) * 1e3,
+        num(&p[1]) * 1e3,
+        num(&p[2]) * 1e3,
+        num(&e["offset_m"][0]) * 1e3,
+        num(&e["standard_error_m"][0]) * 1e3,
+        num(&e["offset_m"][1]) * 1e3,
+        num(&e["standard_error_m"][1]) * 1e3
+    );
+    outln!(
+        "  level plate residual RMS {:.3} mm, largest {:.3} mm, over {} touches",
+        num(&e["rms_residual_m"]) * 1e3,
+        num(&e["max_residual_m"]) * 1e3,
+        e["touches"]
+    );
+}
+
 /// Millinewtons for people.
 fn print_result(e: &Value) {
     if e["step"] == "tare" {
@@ -279,6 +316,8 @@ fn print_result(e: &Value) {
     }
     if e["procedure"] == "tissue" {
         print_tissue(e);
+    } else if e["procedure"] == "pivot" {
+        print_pivot(e);
     } else {
         print_elements(e);
     }
@@ -368,6 +407,36 @@ mod tests {
         );
         assert_eq!(req["course_m"], json!([[-0.11, 0.0369], [0.115, 0.0172]]));
         assert!((req["course_lateral_m"].as_f64().expect("lateral") - 0.0272).abs() < 1e-15);
+    }
+
+    #[test]
+    fn the_pivot_points_are_read_in_millimetres_and_sent_in_metres() {
+        let cli = Cli::try_parse_from([
+            "calibrate",
+            "pivot",
+            "--point=-80,45",
+            "--point=80,45",
+            "--point=-40,10",
+            "--point=40,10",
+            "--point=0,-60",
+        ])
+        .expect("parses");
+        let (_, req) = request(&cli.procedure);
+        assert_eq!(req["procedure"], "pivot");
+        assert_eq!(
+            req["points_m"],
+            json!([
+                [-0.08, 0.045],
+                [0.08, 0.045],
+                [-0.04, 0.01],
+                [0.04, 0.01],
+                [0.0, -0.06]
+            ])
+        );
+        let e = Cli::try_parse_from(["calibrate", "pivot"])
+            .expect_err("no points")
+            .to_string();
+        assert!(e.contains("--point"), "{e}");
     }
 
     #[test]

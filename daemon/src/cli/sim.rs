@@ -57,9 +57,10 @@ pub struct Args {
     /// default: the shipped simulator configuration.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// A calibration file (as `pulsetrack calibrate` writes it): its tactile calibration and
-    /// tissue frame are applied to every trial as the daemon applies them. Default: none (the
-    /// array and the tissue frame as configured, whatever errors the scene gives them).
+    /// A calibration file (as `pulsetrack calibrate` writes it): its tactile calibration,
+    /// tissue frame and pivot are applied to every trial as the daemon applies them. Default:
+    /// none (the array, the tissue frame and the pivot as configured, whatever errors the
+    /// scene gives them).
     #[arg(long, value_name = "FILE")]
     pub calibration: Option<PathBuf>,
 }
@@ -74,7 +75,7 @@ fn file_calibration(
         .map_err(|e| e.to_string())?
         .ok_or_else(|| format!("{}: no such file", path.display()))?
         .value;
-    if file.tactile.is_none() && file.tissue.is_none() {
+    if file.tactile.is_none() && file.tissue.is_none() && file.pivot.is_none() {
         return Err(format!("{}: holds no calibration", path.display()));
     }
     // The daemon's own tests of a record it may use.
@@ -91,7 +92,16 @@ fn file_calibration(
         .map(|r| crate::supervisor::calibration::usable_tissue(&r))
         .transpose()
         .map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(sim::runner::Calibrated { tactile, tissue })
+    let pivot_in_base_m = file
+        .pivot
+        .map(|r| crate::supervisor::calibration::usable_pivot(&r))
+        .transpose()
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(sim::runner::Calibrated {
+        tactile,
+        tissue,
+        pivot_in_base_m,
+    })
 }
 
 #[derive(Debug, Serialize)]

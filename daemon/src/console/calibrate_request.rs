@@ -7,9 +7,9 @@ use serde_json::Value;
 
 /// The procedures the issue names; only those in `BUILT` run.
 const PROCEDURES: [&str; 4] = ["tactile", "pivot", "tissue", "joints"];
-const BUILT: [&str; 2] = ["tactile", "tissue"];
+const BUILT: [&str; 3] = ["tactile", "pivot", "tissue"];
 
-/// Most surface points one tissue calibration touches (each takes some 15 s).
+/// Most surface points one tissue or pivot calibration touches (each takes some 15 s).
 pub const MAX_TOUCHES: usize = 16;
 
 /// The longest recording a step may ask for, s.
@@ -146,8 +146,37 @@ fn tissue(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, Reques
     })
 }
 
+/// `{"verb": "calibrate", "procedure": "pivot", "points_m": [[x, z], ...]}`: five or more
+/// points of a level plate (their layout is judged by the supervisor, which knows why a
+/// layout cannot fix the pivot).
+fn pivot(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, RequestError> {
+    let id = args.id;
+    if let Some(step) = string(args, "step")?
+        && step != "touch"
+    {
+        return Err(err(
+            Some(id),
+            ErrorCode::BadArgument,
+            format!("unknown pivot step {step:?}; known: touch"),
+        ));
+    }
+    let min = control::calibration::level_pivot::MIN_TOUCHES;
+    let points = parse_points(args, "points_m", limits)?.unwrap_or_default();
+    if !(min..=MAX_TOUCHES).contains(&points.len()) {
+        return Err(err(
+            Some(id),
+            ErrorCode::BadArgument,
+            format!(
+                "`calibrate` pivot needs `points_m`: {min} to {MAX_TOUCHES} points [x, z] of a level plate to touch, spread in x and z, got {}",
+                points.len()
+            ),
+        ));
+    }
+    Ok(CalibrateStep::PivotTouch { points })
+}
+
 /// `{"verb": "calibrate", "procedure": "tactile", "step": "tare" | "load", ...}`, or the
-/// tissue procedure.
+/// tissue or pivot procedure.
 pub(super) fn parse(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, RequestError> {
     let id = args.id;
     let procedure = string(args, "procedure")?.ok_or_else(|| {
@@ -176,6 +205,9 @@ pub(super) fn parse(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateSt
     }
     if procedure == "tissue" {
         return tissue(args, limits);
+    }
+    if procedure == "pivot" {
+        return pivot(args, limits);
     }
     let duration_s = args.optional_number("duration_s")?;
     if let Some(d) = duration_s

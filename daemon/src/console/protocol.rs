@@ -113,6 +113,11 @@ pub enum CalibrateStep {
         /// Tissue `z` of the line through the course points, m (0: the artery along `x`).
         course_lateral_m: f64,
     },
+    /// Touch a level plate at `points` (five or more, spread in `x` and `z`), tissue frame
+    /// as configured, and fit the pivot's horizontal place to the touches.
+    PivotTouch {
+        points: Vec<control::frames::SurfacePoint>,
+    },
 }
 
 impl CalibrateStep {
@@ -120,6 +125,7 @@ impl CalibrateStep {
         match self {
             CalibrateStep::TactileTare { .. } | CalibrateStep::TactileLoad { .. } => "tactile",
             CalibrateStep::TissueTouch { .. } => "tissue",
+            CalibrateStep::PivotTouch { .. } => "pivot",
         }
     }
 
@@ -127,7 +133,7 @@ impl CalibrateStep {
         match self {
             CalibrateStep::TactileTare { .. } => "tare",
             CalibrateStep::TactileLoad { .. } => "load",
-            CalibrateStep::TissueTouch { .. } => "touch",
+            CalibrateStep::TissueTouch { .. } | CalibrateStep::PivotTouch { .. } => "touch",
         }
     }
 
@@ -135,13 +141,16 @@ impl CalibrateStep {
         match self {
             CalibrateStep::TactileTare { duration_s }
             | CalibrateStep::TactileLoad { duration_s, .. } => *duration_s,
-            CalibrateStep::TissueTouch { .. } => None,
+            CalibrateStep::TissueTouch { .. } | CalibrateStep::PivotTouch { .. } => None,
         }
     }
 
     /// The step moves the arm (and so needs it powered and nothing else moving it).
     pub fn moves_arm(&self) -> bool {
-        matches!(self, CalibrateStep::TissueTouch { .. })
+        matches!(
+            self,
+            CalibrateStep::TissueTouch { .. } | CalibrateStep::PivotTouch { .. }
+        )
     }
 }
 
@@ -242,6 +251,10 @@ impl Verb {
                         "course_m",
                         course.map_or(Value::Null, |c| Value::Array(c.iter().map(xz).collect())),
                     );
+                }
+                if let CalibrateStep::PivotTouch { points } = c {
+                    let xz = |p: &control::frames::SurfacePoint| serde_json::json!([p.x_m, p.z_m]);
+                    put("points_m", points.iter().map(xz).collect());
                 }
             }
             Verb::Search {

@@ -397,23 +397,12 @@ impl ControlLoop {
                 s.move_to_point(now, target, speed_m_s)
             }),
             ControlCommand::SetPlacement { seq, placement } => {
-                let powered = self.status.mode == LoopMode::Enabled;
-                let state = if powered { joints } else { None };
-                if powered && state.is_none() {
-                    Err(Refusal::CauseStillPresent(FaultKind::JointStale))
-                } else {
-                    self.servo.set_placement(now, placement, state).map(|()| {
-                        // The believed pose in the new frame before the next step compares it
-                        // with a setpoint in that frame.
-                        let q = self.status.position_rad;
-                        self.refresh_pose(now, &q);
-                        if powered {
-                            self.status.motion_seq = seq;
-                            self.status.settled = false;
-                            self.status.shortfall = None;
-                        }
-                    })
-                }
+                self.replace_model(now, seq, joints, |s, state| {
+                    s.set_placement(now, placement, state)
+                })
+            }
+            ControlCommand::SetPivot { seq, pivot } => {
+                self.replace_model(now, seq, joints, |s, state| s.set_pivot(now, pivot, state))
             }
         };
         let event = match outcome {
@@ -421,6 +410,33 @@ impl ControlLoop {
             Err(why) => ControlEvent::Refused { seq, t_s: now, why },
         };
         self.send_event(event);
+    }
+
+    /// A calibration's new kinematics (`replace`: a tissue frame or a pivot), holding where the
+    /// arm is while powered (refused without a fresh joint reading to hold at).
+    fn replace_model(
+        &mut self,
+        now: f64,
+        seq: u64,
+        joints: Option<&JointState>,
+        replace: impl FnOnce(&mut dyn Servo, Option<&JointState>) -> Result<(), Refusal>,
+    ) -> Result<(), Refusal> {
+        let powered = self.status.mode == LoopMode::Enabled;
+        let state = if powered { joints } else { None };
+        if powered && state.is_none() {
+            return Err(Refusal::CauseStillPresent(FaultKind::JointStale));
+        }
+        replace(self.servo.as_mut(), state)?;
+        // The believed pose through the new model before the next step compares it with a
+        // setpoint in it.
+        let q = self.status.position_rad;
+        self.refresh_pose(now, &q);
+        if powered {
+            self.status.motion_seq = seq;
+            self.status.settled = false;
+            self.status.shortfall = None;
+        }
+        Ok(())
     }
 
     /// A move to a target at (`x_m`, `z_m`) over the surface: refused unpowered or outside the

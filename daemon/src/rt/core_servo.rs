@@ -32,6 +32,30 @@ pub fn build(c: &Config) -> Result<Box<dyn Servo>, String> {
 }
 
 impl CoreServo {
+    /// Use `arm` (a calibration's tissue frame or pivot) from now on. Powered (`state`), the
+    /// setpoint becomes the measured pose through it, so that nothing moves; the old model
+    /// stays if the arm cannot hold there.
+    fn replace_arm(
+        &mut self,
+        now_s: f64,
+        arm: Result<ArmModel, KinematicsError>,
+        state: Option<&JointState>,
+    ) -> Result<(), Refusal> {
+        let arm = arm.map_err(|e| Refusal::Unreachable(kinematic_fault(&e, now_s).kind))?;
+        let before = std::mem::replace(&mut self.arm, arm);
+        match state {
+            Some(s) => self.hold_here(now_s, s).map_err(|f| {
+                self.arm = before;
+                Refusal::Unreachable(f.kind)
+            }),
+            None => {
+                // Unpowered: the next enable holds where the arm is, in the new model.
+                self.planner.clear();
+                Ok(())
+            }
+        }
+    }
+
     pub fn new(c: &Config) -> Result<Self, String> {
         Ok(Self {
             arm: c
@@ -220,22 +244,21 @@ impl Servo for CoreServo {
         placement: control::frames::TissuePlacement,
         state: Option<&JointState>,
     ) -> Result<(), Refusal> {
-        let arm = self
-            .arm
-            .with_placement(placement)
-            .map_err(|e| Refusal::Unreachable(kinematic_fault(&e, now_s).kind))?;
-        let before = std::mem::replace(&mut self.arm, arm);
-        match state {
-            Some(s) => self.hold_here(now_s, s).map_err(|f| {
-                self.arm = before;
-                Refusal::Unreachable(f.kind)
-            }),
-            None => {
-                // Unpowered: the next enable holds where the arm is, in the new frame.
-                self.planner.clear();
-                Ok(())
-            }
-        }
+        let arm = self.arm.with_placement(placement);
+        self.replace_arm(now_s, arm, state)
+    }
+
+    fn set_pivot(
+        &mut self,
+        now_s: f64,
+        pivot: control::kinematics::PivotGeometry,
+        state: Option<&JointState>,
+    ) -> Result<(), Refusal> {
+        let arm = self.arm.with_pivot(pivot);
+        self.replace_arm(now_s, arm, state)?;
+        // The instrument's excess weight reaches the joints through the pivot too.
+        self.gravity = self.gravity.with_pivot(&pivot);
+        Ok(())
     }
 
     fn hold(&mut self, now_s: f64) {

@@ -40,6 +40,11 @@ pub enum ControlCommand {
         seq: u64,
         placement: control::frames::TissuePlacement,
     },
+    /// Put the pivot where a calibration found it; powered, the arm holds where it is.
+    SetPivot {
+        seq: u64,
+        pivot: control::kinematics::PivotGeometry,
+    },
     /// Latch an `estop` fault: power off at once.
     Estop { seq: u64 },
     /// Latch a fault the supervisor found (a failed recording): power off at once.
@@ -59,6 +64,7 @@ impl ControlCommand {
             | ControlCommand::MoveTo { seq, .. }
             | ControlCommand::MoveToPoint { seq, .. }
             | ControlCommand::SetPlacement { seq, .. }
+            | ControlCommand::SetPivot { seq, .. }
             | ControlCommand::Estop { seq }
             | ControlCommand::Latch { seq, .. }
             | ControlCommand::Reset { seq }

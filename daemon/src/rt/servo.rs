@@ -73,6 +73,17 @@ pub trait Servo: Send {
         Err(Refusal::Backend)
     }
 
+    /// Put the pivot (incision) where a calibration found it; as [`Self::set_placement`],
+    /// the setpoint becomes the measured pose through the new pivot, so that nothing moves.
+    fn set_pivot(
+        &mut self,
+        _now_s: f64,
+        _pivot: control::kinematics::PivotGeometry,
+        _state: Option<&JointState>,
+    ) -> Result<(), Refusal> {
+        Err(Refusal::Backend)
+    }
+
     /// Come to rest as soon as the motion limits allow.
     fn hold(&mut self, now_s: f64);
 

@@ -9,7 +9,9 @@ use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
 
-use config::calibration_file::{self, CalibrationFile, CheckRecord, TactileRecord, TissueRecord};
+use config::calibration_file::{
+    self, CalibrationFile, CheckRecord, PivotRecord, TactileRecord, TissueRecord,
+};
 use control::calibration::{TactileCalibration, TactileSettings, Tare, Tolerances, all_passed};
 use control::sensor::ArrayGeometry;
 use control::types::TactileFrame;
@@ -57,6 +59,8 @@ pub struct Calibration {
     applied: Option<TactileRecord>,
     /// The tissue frame in use, if a calibration placed it.
     pub(super) tissue: Option<TissueRecord>,
+    /// The pivot in use, if a calibration found it.
+    pub(super) pivot: Option<PivotRecord>,
     tare: Option<Tare>,
     recording: Option<Recording>,
     bench: Option<Box<dyn ArrayBench>>,
@@ -85,6 +89,18 @@ pub fn usable_record(
     record.calibration.geometry(sensor)
 }
 
+/// The pivot of the file's pivot record, if the daemon may use it (it passed its checks).
+pub fn usable_pivot(record: &PivotRecord) -> Result<[f64; 3], String> {
+    if record.passed {
+        Ok(record.pivot_in_base_m)
+    } else {
+        Err(format!(
+            "its pivot of {} did not pass its checks",
+            record.measured_utc
+        ))
+    }
+}
+
 /// The placement of the file's tissue record, if the daemon may use it (it passed its checks).
 pub fn usable_tissue(record: &TissueRecord) -> Result<control::frames::TissuePlacement, String> {
     if record.passed {
@@ -103,12 +119,14 @@ impl Calibration {
         settings: CalibrationSettings,
         applied: Option<TactileRecord>,
         tissue: Option<TissueRecord>,
+        pivot: Option<PivotRecord>,
         bench: Option<Box<dyn ArrayBench>>,
     ) -> Self {
         Self {
             settings,
             applied,
             tissue,
+            pivot,
             tare: None,
             recording: None,
             bench,
@@ -118,6 +136,11 @@ impl Calibration {
     /// The tissue frame a calibration placed, if any.
     pub fn tissue_record(&self) -> Option<&TissueRecord> {
         self.tissue.as_ref()
+    }
+
+    /// The pivot a calibration found, if any.
+    pub fn pivot_record(&self) -> Option<&PivotRecord> {
+        self.pivot.as_ref()
     }
 
     pub fn recording(&self) -> bool {
@@ -150,6 +173,12 @@ impl Calibration {
                 "placement": r.placement,
                 "rms_residual_m": r.rms_residual_m,
                 "tilt_rad": r.tilt_rad,
+            })),
+            "pivot": self.pivot.as_ref().map(|r| json!({
+                "measured_utc": r.measured_utc,
+                "pivot_in_base_m": r.pivot_in_base_m,
+                "offset_m": r.offset_m,
+                "rms_residual_m": r.rms_residual_m,
             })),
             "tare_pending": self.tare.is_some(),
             "recording": self.recording.as_ref().map(|r| json!({
@@ -208,6 +237,9 @@ impl Supervisor {
         {
             return self.tissue_start(id, to, points, course.map(|c| (c, course_lateral_m)));
         }
+        if let CalibrateStep::PivotTouch { points } = step {
+            return self.pivot_start(id, to, points);
+        }
         let cal = &mut self.calibration;
         if cal.recording.is_some() {
             return self.reply_err(
@@ -251,7 +283,9 @@ impl Supervisor {
                     CalibrateStep::TactileLoad {
                         load_per_element_n, ..
                     } => format!("under {load_per_element_n} N per element"),
-                    CalibrateStep::TissueTouch { .. } => String::new(),
+                    CalibrateStep::TissueTouch { .. } | CalibrateStep::PivotTouch { .. } => {
+                        String::new()
+                    }
                 }
             ),
         );
@@ -357,7 +391,7 @@ impl Supervisor {
             CalibrateStep::TactileLoad {
                 load_per_element_n, ..
             } => self.finish_tactile(r.step, &r.frames, load_per_element_n),
-            CalibrateStep::TissueTouch { .. } => {}
+            CalibrateStep::TissueTouch { .. } | CalibrateStep::PivotTouch { .. } => {}
         }
     }
 

@@ -8,6 +8,7 @@
 mod artery_scene;
 pub mod calibration;
 mod live_view;
+mod pivot_touch;
 mod report;
 mod requests;
 mod search;
@@ -15,6 +16,7 @@ mod search_recording;
 mod search_scene;
 pub mod state;
 mod tissue_touch;
+mod touch_run;
 mod tracking;
 pub mod trial;
 
@@ -150,10 +152,12 @@ enum Purpose {
     /// Coming to rest before a failed recording latches its fault.
     RecordingHold,
     Latch,
-    /// A calibration procedure's own move (the tissue frame's touches).
+    /// A calibration procedure's own move (the tissue frame's or the pivot's touches).
     CalibrationMove,
     /// A tissue frame that passed and is written, handed to the loop.
     SetPlacement,
+    /// A pivot that passed and is written, handed to the loop.
+    SetPivot,
 }
 
 /// A motion that stopped short of its target (see `Supervisor::stopped_short`).
@@ -223,10 +227,11 @@ pub struct Supervisor {
     search_looks: Vec<(SurfacePoint, bool)>,
     /// The search's own recording while it runs (`supervisor/search_recording.rs`).
     search_file: Option<search_recording::SearchFile>,
-    /// The tissue-frame procedure under way (state `calibrating`), and its result waiting
-    /// for the loop to take the new placement.
-    tissue: Option<tissue_touch::TissueTouch>,
+    /// The tissue-frame or pivot procedure's touches under way (state `calibrating`), and
+    /// their results waiting for the loop to take the new placement or pivot.
+    touching: Option<touch_run::TouchRun>,
     tissue_result: Option<(Value, config::calibration_file::TissueRecord)>,
+    pivot_result: Option<(Value, config::calibration_file::PivotRecord)>,
     pending: Vec<Pending>,
     timing: Option<PeriodSummary>,
     overruns_reported: u64,
@@ -299,8 +304,9 @@ impl Supervisor {
             searcher: None,
             search_looks: Vec::new(),
             search_file: None,
-            tissue: None,
+            touching: None,
             tissue_result: None,
+            pivot_result: None,
             pending: Vec::new(),
             timing: None,
             overruns_reported: 0,
@@ -802,9 +808,10 @@ impl Supervisor {
                     self.tracker_target_unreachable();
                 }
                 Purpose::CalibrationMove => {
-                    self.tissue_failed(&format!("the loop refused a move: {reason}"))
+                    self.touches_failed(&format!("the loop refused a move: {reason}"))
                 }
                 Purpose::SetPlacement => self.tissue_applied(Some(reason.clone())),
+                Purpose::SetPivot => self.pivot_applied(Some(reason.clone())),
                 Purpose::ShutdownHold => {}
                 _ => {}
             }
@@ -849,6 +856,7 @@ impl Supervisor {
             | Purpose::CalibrationMove
             | Purpose::Latch => {}
             Purpose::SetPlacement => self.tissue_applied(None),
+            Purpose::SetPivot => self.pivot_applied(None),
         }
         if let Some((id, to)) = reply {
             let result = match p.purpose {
@@ -872,7 +880,7 @@ impl Supervisor {
         self.log_line(f.t_s, level::ERROR, format!("FAULT latched: {reason}"));
         let dump = self.dump_flight_recorder(&f);
         self.search_abort();
-        self.tissue_failed(&format!("the arm faulted: {reason}"));
+        self.touches_failed(&format!("the arm faulted: {reason}"));
         self.end_trial(TrialEnd::Fault);
         self.fault = Some((f, dump.clone()));
         self.set_state(OpState::Fault);

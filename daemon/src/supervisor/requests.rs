@@ -64,7 +64,7 @@ impl Supervisor {
             }
             Verb::Disable => {
                 self.search_abort();
-                self.tissue_failed("disabled");
+                self.touches_failed("disabled");
                 self.end_trial(TrialEnd::Disabled);
                 let seq = self.seq();
                 self.send(
@@ -127,7 +127,7 @@ impl Supervisor {
             }
             Verb::Stop => {
                 self.calibration_stop();
-                self.tissue_failed("stopped");
+                self.touches_failed("stopped");
                 if !self.state.powered() {
                     // Only a calibration recording was running (the table admits nothing
                     // else here): there is no arm to hold.

@@ -38,8 +38,8 @@ impl Supervisor {
         if self.searcher.is_some() {
             return self.search_frame(&f, settled);
         }
-        if self.tissue.is_some() {
-            return self.tissue_frame(&f, settled);
+        if self.touching.is_some() {
+            return self.touch_frame(&f, settled);
         }
         if !fed {
             return;
@@ -115,7 +115,7 @@ impl Supervisor {
             self.end_trial(TrialEnd::ShortOfTarget);
         }
         let searching = self.searcher.is_some();
-        self.tissue_failed(&format!("the arm stopped short of a touch: {s}"));
+        self.touches_failed(&format!("the arm stopped short of a touch: {s}"));
         // The loop holds a stopped-short motion where the arm is, not at its target.
         let hold = self.seq();
         self.motion_seq = hold;

@@ -27,6 +27,10 @@ pub const SHIPPED: &[(&str, &str)] = &[
         include_str!("../../../config/scenes/pivot-off-arc-145.ron"),
     ),
     (
+        "pivot-off-arc-145-unweighted.ron",
+        include_str!("../../../config/scenes/pivot-off-arc-145-unweighted.ron"),
+    ),
+    (
         "robust-heart-rate.ron",
         include_str!("../../../config/scenes/robust-heart-rate.ron"),
     ),
@@ -107,6 +111,7 @@ const NAMES: &[&str] = &[
     "seed-arc-220.ron",
     "seed-radial-wrist.ron",
     "pivot-off-arc-145.ron",
+    "pivot-off-arc-145-unweighted.ron",
     "robust-heart-rate.ron",
     "robust-irregular-beats.ron",
     "robust-lumps.ron",

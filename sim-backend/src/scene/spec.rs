@@ -58,6 +58,13 @@ pub struct Scene {
     /// How the surgeon puts the sensor on each placement (default: by commanding the robot).
     #[serde(default)]
     pub placed_by: Placing,
+    /// Someone holds the instrument at `start` until the arm is first powered, as an operator
+    /// does on a rig whose unpowered arm would not rest there: with the added mass off, the
+    /// links' weight lifts the tip off the tissue and the arm falls against its stops, where
+    /// it may not be enabled. Default false: the arm rests at `start` on its own (the mass
+    /// presses the sensor into the tissue).
+    #[serde(default)]
+    pub held_until_enabled: bool,
 }
 
 /// How the surgeon puts the sensor on a placement.
