@@ -155,13 +155,25 @@ fn the_pivot_is_found_by_touch_written_used_and_loaded_again() {
     );
     daemon.stop();
 
-    // The next start loads it.
+    // The next start loads it; the command line's status says it for people, in mm.
     let (daemon, mut c) = start(dir.path(), &setup());
     let status = call(&mut c, "status", json!({}));
     assert_eq!(
         status["calibration"]["pivot"]["pivot_in_base_m"],
         json!(record.pivot_in_base_m),
         "{status}"
+    );
+    let human = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
+        .args(["status", "--socket"])
+        .arg(&daemon.socket)
+        .output()
+        .expect("pt-console status");
+    let said = String::from_utf8_lossy(&human.stdout);
+    let moved_z_mm = format!("z {:+.2} mm", record.offset_m[1] * 1e3);
+    assert!(
+        said.contains(&format!("calibrated pivot of {}", record.measured_utc))
+            && said.contains(&moved_z_mm),
+        "{said}"
     );
     daemon.stop();
 

@@ -368,6 +368,21 @@ fn print_status(r: &Value) {
             tissue["rms_residual_m"].as_f64().unwrap_or(f64::NAN) * 1e3
         );
     }
+    let pivot = &r["calibration"]["pivot"];
+    if pivot.is_object() {
+        let at = |i: usize| pivot["pivot_in_base_m"][i].as_f64().unwrap_or(f64::NAN) * 1e3;
+        let moved = |i: usize| pivot["offset_m"][i].as_f64().unwrap_or(f64::NAN) * 1e3;
+        outln!(
+            "calibrated pivot of {}: ({:.2}, {:.2}, {:.2}) mm in base, moved x {:+.2} z {:+.2} mm, plate residual {:.3} mm",
+            pivot["measured_utc"].as_str().unwrap_or("?"),
+            at(0),
+            at(1),
+            at(2),
+            moved(0),
+            moved(1),
+            pivot["rms_residual_m"].as_f64().unwrap_or(f64::NAN) * 1e3
+        );
+    }
     let t = &r["tactile"];
     outln!(
         "tactile    {} frames, newest {} s old, contact {} N",
