@@ -210,25 +210,7 @@ fn the_pivot_is_found_by_touch_written_used_and_loaded_again() {
     // A tracker run through the calibration against one without it (the lockstep runner,
     // seeds 1 and 2, the mass back on): the wrong pivot puts every reported point to one
     // side of the artery.
-    let sim = |extra: &[&str]| -> Value {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
-            .args([
-                "sim",
-                "--scene",
-                "pivot-off-arc-145",
-                "--tracker",
-                "beatslide",
-                "--trials",
-                "2",
-                "--seed",
-                "1",
-                "--json",
-            ])
-            .args(extra)
-            .output()
-            .expect("sim");
-        serde_json::from_slice(&out.stdout).unwrap_or(Value::Null)
-    };
+    let sim = |extra: &[&str]| e2e::sim_two_trials("pivot-off-arc-145", extra);
     let worst_mean = |doc: &Value| -> f64 {
         doc["trials"]
             .as_array()

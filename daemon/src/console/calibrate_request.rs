@@ -88,20 +88,29 @@ fn parse_points(
     Ok(Some(out))
 }
 
-/// `{"verb": "calibrate", "procedure": "tissue", "points_m": [[x, z], ...],
-/// "course_m": [[x, z], [x, z]]}`.
-fn tissue(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, RequestError> {
-    let id = args.id;
+/// A touch procedure's `points_m` (none: empty), its only step being `touch`.
+fn touch_points(
+    args: &mut Args,
+    procedure: &str,
+    limits: &ParseLimits,
+) -> Result<Vec<SurfacePoint>, RequestError> {
     if let Some(step) = string(args, "step")?
         && step != "touch"
     {
         return Err(err(
-            Some(id),
+            Some(args.id),
             ErrorCode::BadArgument,
-            format!("unknown tissue step {step:?}; known: touch"),
+            format!("unknown {procedure} step {step:?}; known: touch"),
         ));
     }
-    let points = parse_points(args, "points_m", limits)?.unwrap_or_default();
+    Ok(parse_points(args, "points_m", limits)?.unwrap_or_default())
+}
+
+/// `{"verb": "calibrate", "procedure": "tissue", "points_m": [[x, z], ...],
+/// "course_m": [[x, z], [x, z]]}`.
+fn tissue(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, RequestError> {
+    let id = args.id;
+    let points = touch_points(args, "tissue", limits)?;
     if !(3..=MAX_TOUCHES).contains(&points.len()) {
         return Err(err(
             Some(id),
@@ -151,17 +160,8 @@ fn tissue(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, Reques
 /// layout cannot fix the pivot).
 fn pivot(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, RequestError> {
     let id = args.id;
-    if let Some(step) = string(args, "step")?
-        && step != "touch"
-    {
-        return Err(err(
-            Some(id),
-            ErrorCode::BadArgument,
-            format!("unknown pivot step {step:?}; known: touch"),
-        ));
-    }
     let min = control::calibration::level_pivot::MIN_TOUCHES;
-    let points = parse_points(args, "points_m", limits)?.unwrap_or_default();
+    let points = touch_points(args, "pivot", limits)?;
     if !(min..=MAX_TOUCHES).contains(&points.len()) {
         return Err(err(
             Some(id),

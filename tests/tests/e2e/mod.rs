@@ -400,3 +400,25 @@ pub fn assert_passed_but_not_saved(result: &Value, file: &Path, before: &[u8]) {
     assert_says(result, "reason", "No space left");
     assert_eq!(std::fs::read(file).expect("still there"), before);
 }
+
+/// `pulsetrack sim` of `scene` with `beatslide`, seeds 1 and 2, as JSON (null if it printed
+/// none), with `extra` arguments (`--calibration FILE`): a calibration's effect on a track.
+pub fn sim_two_trials(scene: &str, extra: &[&str]) -> Value {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
+        .args([
+            "sim",
+            "--scene",
+            scene,
+            "--tracker",
+            "beatslide",
+            "--trials",
+            "2",
+            "--seed",
+            "1",
+            "--json",
+        ])
+        .args(extra)
+        .output()
+        .expect("sim");
+    serde_json::from_slice(&out.stdout).unwrap_or(Value::Null)
+}
