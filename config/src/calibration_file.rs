@@ -30,6 +30,11 @@ pub struct CalibrationFile {
     /// configured (files written before the pivot procedure have none).
     #[serde(default)]
     pub pivot: Option<PivotRecord>,
+    /// The joints' encoder zero and stops from the homing and the sweep; absent: the
+    /// encoders as the backend reads them (files written before the joints procedure have
+    /// none).
+    #[serde(default)]
+    pub joints: Option<JointsRecord>,
 }
 
 impl Default for CalibrationFile {
@@ -39,8 +44,48 @@ impl Default for CalibrationFile {
             tactile: None,
             tissue: None,
             pivot: None,
+            joints: None,
         }
     }
+}
+
+/// One joints calibration as measured: the homing's zero offsets and the stops the sweep
+/// found, with their checks.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointsRecord {
+    /// When the sweep ended, UTC.
+    pub measured_utc: String,
+    /// The reset pose's known angles (`calibration.joints.reset_pose_rad`), rad.
+    pub reset_pose_rad: [f64; 3],
+    /// What the encoders read there, before this record's offset, rad.
+    pub read_rad: [f64; 3],
+    /// What the daemon adds to every encoder angle once this record is in use
+    /// (`reset_pose_rad − read_rad`), rad.
+    pub zero_offset_rad: [f64; 3],
+    /// Each stop the sweep looked for, in the order swept.
+    pub stops: Vec<StopRecord>,
+    pub checks: Vec<CheckRecord>,
+    /// Every check passed; the daemon applies only a record that passed.
+    pub passed: bool,
+}
+
+/// Where the sweep found one stop, against the software limit on that side.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StopRecord {
+    pub joint: usize,
+    /// `lower` or `upper`.
+    pub side: control::calibration::Side,
+    /// The joint's angle where it stalled (or where the overtravel ended), corrected by
+    /// the record's zero offset, rad.
+    pub at_rad: f64,
+    /// True: a stall against the torque cap; false: the overtravel ended first.
+    pub stalled: bool,
+    /// `robot.joint_limits` on that side, rad.
+    pub software_limit_rad: f64,
+    /// How far the stop lies beyond the software limit (negative: inside it), rad.
+    pub margin_rad: f64,
 }
 
 /// One tissue-frame calibration as measured: the touched points, the fit and its checks.
@@ -190,6 +235,9 @@ impl Validate for CalibrationFile {
                 );
             });
         }
+        if let Some(j) = &self.joints {
+            v.at("joints", |v| validate_joints(j, v));
+        }
         if let Some(p) = &self.pivot {
             v.at("pivot", |v| {
                 v.check(!p.measured_utc.is_empty(), "measured_utc", "must say when");
@@ -214,6 +262,34 @@ impl Validate for CalibrationFile {
             });
         }
     }
+}
+
+fn validate_joints(j: &JointsRecord, v: &mut Validator) {
+    v.check(!j.measured_utc.is_empty(), "measured_utc", "must say when");
+    for (name, values) in [
+        ("reset_pose_rad", &j.reset_pose_rad),
+        ("read_rad", &j.read_rad),
+        ("zero_offset_rad", &j.zero_offset_rad),
+    ] {
+        v.check(values.iter().all(|x| x.is_finite()), name, "must be finite");
+    }
+    for (i, s) in j.stops.iter().enumerate() {
+        v.check(
+            s.joint < 3,
+            &format!("stops[{i}].joint"),
+            format!("there is no joint {} (joints 0, 1 and 2)", s.joint),
+        );
+        v.check(
+            s.at_rad.is_finite() && s.software_limit_rad.is_finite() && s.margin_rad.is_finite(),
+            &format!("stops[{i}]"),
+            "must be finite",
+        );
+    }
+    v.check(
+        !j.passed || j.checks.iter().all(|c| c.passed),
+        "passed",
+        "is true, but a check failed",
+    );
 }
 
 /// The calibration file at `path`: `Ok(None)` if there is none yet; an error naming the

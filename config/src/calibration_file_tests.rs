@@ -83,6 +83,91 @@ fn pivot() -> PivotRecord {
     }
 }
 
+fn joints() -> JointsRecord {
+    JointsRecord {
+        measured_utc: "2026-11-28T13-00-00Z".into(),
+        reset_pose_rad: [0.0, 0.0, 0.0],
+        read_rad: [0.0, -0.0349, 0.0],
+        zero_offset_rad: [0.0, 0.0349, 0.0],
+        stops: vec![StopRecord {
+            joint: 1,
+            side: control::calibration::Side::Upper,
+            at_rad: 1.25,
+            stalled: true,
+            software_limit_rad: 1.2,
+            margin_rad: 0.05,
+        }],
+        checks: vec![],
+        passed: true,
+    }
+}
+
+#[test]
+fn a_file_from_before_the_joints_procedure_still_loads() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("calibration.ron");
+    let old = CalibrationFile {
+        tactile: Some(tactile()),
+        pivot: Some(pivot()),
+        ..CalibrationFile::default()
+    };
+    // As a daemon without the joints procedure wrote it: no `joints` field at all.
+    let text = ron::ser::to_string_pretty(&old, ron::ser::PrettyConfig::default()).expect("ron");
+    let text: String = text
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("joints:"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(!text.contains("joints"), "{text}");
+    std::fs::write(&path, text).expect("write");
+    let f = load(&path).expect("loads").expect("present").value;
+    assert_eq!(f, old);
+    assert_eq!(f.joints, None);
+}
+
+#[test]
+fn a_joints_record_that_cannot_be_used_is_refused_naming_the_field() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("calibration.ron");
+    for (change, field) in [
+        (
+            (|j: &mut JointsRecord| j.zero_offset_rad[1] = f64::NAN) as fn(&mut JointsRecord),
+            "joints.zero_offset_rad",
+        ),
+        (
+            |j: &mut JointsRecord| j.stops[0].joint = 3,
+            "joints.stops[0].joint",
+        ),
+        (
+            |j: &mut JointsRecord| j.stops[0].at_rad = f64::INFINITY,
+            "joints.stops[0]",
+        ),
+        (
+            |j: &mut JointsRecord| {
+                j.checks = vec![CheckRecord {
+                    quantity: "joint 1 upper stop beyond its software limit".into(),
+                    value: -0.03,
+                    bound: "at_least".into(),
+                    limit: 0.02,
+                    unit: "rad".into(),
+                    passed: false,
+                }]
+            },
+            "joints.passed",
+        ),
+    ] {
+        let mut j = joints();
+        change(&mut j);
+        let file = CalibrationFile {
+            joints: Some(j),
+            ..CalibrationFile::default()
+        };
+        std::fs::write(&path, ron::ser::to_string(&file).expect("ron")).expect("write");
+        let e = load(&path).expect_err(field).to_string();
+        assert!(e.contains(field), "{field}: {e}");
+    }
+}
+
 #[test]
 fn a_file_from_before_the_pivot_procedure_still_loads() {
     let dir = tempfile::tempdir().expect("tmp");
@@ -156,6 +241,7 @@ fn a_tissue_record_that_cannot_be_used_is_refused_naming_the_field() {
         tactile: None,
         tissue: Some(t),
         pivot: None,
+        joints: None,
     };
     save(&path, &file).expect("saved");
     let e = load(&path).expect_err("two points").to_string();
@@ -169,6 +255,7 @@ fn a_tissue_record_that_cannot_be_used_is_refused_naming_the_field() {
             tactile: None,
             tissue: Some(t),
             pivot: None,
+            joints: None,
         })
         .expect("ron"),
     )
@@ -197,6 +284,7 @@ fn a_saved_file_loads_back_the_same() {
         tactile: Some(tactile()),
         tissue: Some(tissue()),
         pivot: Some(pivot()),
+        joints: Some(joints()),
     };
     save(&path, &file).expect("saved, making the folder");
     let back = load(&path).expect("loads").expect("present");
@@ -219,6 +307,7 @@ fn a_bad_file_is_refused_naming_the_field() {
             tactile: Some(t),
             tissue: None,
             pivot: None,
+            joints: None,
         },
     )
     .expect("saved");
@@ -237,6 +326,7 @@ fn a_bad_file_is_refused_naming_the_field() {
             tactile: Some(t),
             tissue: None,
             pivot: None,
+            joints: None,
         },
     )
     .expect("saved");
@@ -292,6 +382,7 @@ fn a_full_disk_leaves_the_old_file_whole() {
         tactile: Some(tactile()),
         tissue: None,
         pivot: None,
+        joints: None,
     };
     save(&path, &old).expect("room for the first");
     let before = std::fs::read(&path).expect("bytes");

@@ -234,6 +234,7 @@ fn calibration_at_start(
         touch: c.calibration.tissue,
         sensor: c.sensor,
         time_scale,
+        joints: c.calibration.joints,
     };
     let file = config::calibration_file::load(&settings.file)
         .map_err(|e| StartError::Control(format!("calibration file: {e}")))?
@@ -272,6 +273,21 @@ fn calibration_at_start(
             Some(r)
         }
     };
+    let joints = match file.joints {
+        None => None,
+        Some(r) => {
+            let o = crate::supervisor::calibration::usable_joints(&r).map_err(|e| {
+                StartError::Control(format!("calibration file {}: {e}", settings.file.display()))
+            })?;
+            tracing::info!(
+                "encoder zero of {} from {} in use: offsets {:?} rad",
+                r.measured_utc,
+                settings.file.display(),
+                o
+            );
+            Some(r)
+        }
+    };
     let tactile = match file.tactile {
         None => {
             tracing::info!(
@@ -299,7 +315,9 @@ fn calibration_at_start(
             }
         },
     };
-    Ok(Calibration::new(settings, tactile, tissue, pivot, bench))
+    Ok(Calibration::new(
+        settings, tactile, tissue, pivot, joints, bench,
+    ))
 }
 
 /// Take the configuration's instance lock (which also checks its directories).
@@ -445,7 +463,8 @@ impl Daemon {
                 flight: flight.clone(),
                 joint_every: c.recording.joint_decimation,
             },
-        );
+        )
+        .with_zero_offset(calibration.joint_zero());
 
         let settings = SupervisorSettings {
             tracker_name: c.tracker.name.clone(),

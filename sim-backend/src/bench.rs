@@ -65,6 +65,10 @@ struct DynamicArm {
     /// The operator's hand holds the joints still until the arm is first powered
     /// (`Scene::held_until_enabled`).
     held: bool,
+    /// The instrument is out of the incision: no rod load, no tissue contact.
+    instrument_out: bool,
+    /// What the encoders add to the true angle, rad (`JointErrorsSpec`).
+    encoder_zero_error_rad: Joints,
     command: JointTorques,
     /// The latest contact solution, for frames and truth.
     normal_n: f64,
@@ -329,7 +333,10 @@ impl Bench {
     pub fn read_joints(&self) -> JointState {
         match &self.arm {
             Arm::Dynamic(a) => {
-                let (q, qd) = a.encoders.read(&a.joints.q);
+                let (mut q, qd) = a.encoders.read(&a.joints.q);
+                for (q, e) in q.iter_mut().zip(a.encoder_zero_error_rad) {
+                    *q += e;
+                }
                 JointState {
                     t_s: self.t_s,
                     position_rad: q,
@@ -541,10 +548,16 @@ impl DynamicArm {
             scene.tissue.true_placement(&config.robot.tissue),
             config.robot.sensor_offset_m,
         )?;
-        let q0 = truth_model.joints_for_sensor(&Point3::new(start.x_m, 0.0, start.z_m))?;
+        let errors = scene.joints.unwrap_or_default();
+        let q0 = if errors.start_at_reset {
+            config.calibration.joints.reset_pose_rad
+        } else {
+            truth_model.joints_for_sensor(&Point3::new(start.x_m, 0.0, start.z_m))?
+        };
         let limits = config.robot.joint_limits;
-        // Mechanical stops a little outside the configured software limits.
-        let stops = [0, 1, 2].map(|i| (limits.min_rad[i] - 0.05, limits.max_rad[i] + 0.05));
+        // Mechanical stops outside the configured software limits (by default a little).
+        let b = errors.stop_beyond_limit_rad;
+        let stops = [0, 1, 2].map(|i| (limits.min_rad[i] - b[i][0], limits.max_rad[i] + b[i][1]));
         let masses = spec.masses.unwrap_or(config.robot.link_masses);
         let incision = scene.pivot.and_then(|p| {
             Some(IncisionHysteresis {
@@ -565,7 +578,9 @@ impl DynamicArm {
             gravity: PhantomGravity::new(&masses),
             saturation: spec.torque_saturation_nm,
             enabled: false,
-            held: scene.held_until_enabled,
+            held: scene.held_until_enabled || errors.start_at_reset,
+            instrument_out: errors.start_at_reset,
+            encoder_zero_error_rad: errors.encoder_zero_error_rad,
             command: JointTorques::ZERO,
             normal_n: 0.0,
             indentation_m: 0.0,
@@ -610,7 +625,10 @@ impl DynamicArm {
             tau[i] -= holding[i];
         }
         let mut extra = Matrix3::zeros();
-        if let Some(geom) = self.rod.rigid(&g.0, &self.pivot) {
+        let rod = (!self.instrument_out)
+            .then(|| self.rod.rigid(&g.0, &self.pivot))
+            .flatten();
+        if let Some(geom) = rod {
             let rigid_tissue = placement.to_tissue(&geom.tip) + sensor_offset;
             let rigid = [rigid_tissue.x, rigid_tissue.z];
             // The rod's lean in the tissue frame (its lower end toward +x by `along`, toward

@@ -532,3 +532,45 @@ fn an_unweighted_arm_falls_to_its_stops_unless_held_until_enabled() {
         "powered, the arm did not move: {q:?} from {start:?}"
     );
 }
+
+/// A scene's joint errors: the encoders read the true angle plus their zero error, the arm
+/// starts in the reset pose held against its fixture (instrument out, no contact), and a
+/// stop set inside the software limit stops the joint there.
+#[test]
+fn a_scene_carries_an_encoder_zero_error_and_a_stop_inside_the_limit() {
+    let config = sim_config();
+    let limits = config.robot.joint_limits;
+    let reset = config.calibration.joints.reset_pose_rad;
+    let mut s = scene("pivot-off-arc-145-unweighted.ron");
+    let mut errors = crate::scene::JointErrorsSpec {
+        encoder_zero_error_rad: [0.0, 2f64.to_radians(), 0.0],
+        start_at_reset: true,
+        ..Default::default()
+    };
+    errors.stop_beyond_limit_rad[0][0] = -0.03;
+    s.joints = Some(errors);
+    let mut bench = Bench::new(&s, &config, 1, false).expect("bench");
+    for _ in 0..2_000 {
+        bench.step();
+    }
+    let read = bench.read_joints().position_rad;
+    for j in 0..3 {
+        let want = reset[j] + errors.encoder_zero_error_rad[j];
+        assert!((read[j] - want).abs() < 1e-3, "joint {j}: read {read:?}");
+    }
+    assert_eq!(bench.truth().normal_n, 0.0, "the instrument is out");
+
+    bench.set_enabled(true);
+    let mut torque = JointTorques::ZERO;
+    torque.torque_nm[0] = -0.1;
+    for _ in 0..20_000 {
+        bench.write_torques(&torque).expect("finite");
+        bench.step();
+    }
+    let q0 = bench.read_joints().position_rad[0];
+    let stop = limits.min_rad[0] + 0.03;
+    assert!(
+        (q0 - stop).abs() < 1e-3,
+        "joint 0 at {q0}, its stop at {stop}"
+    );
+}

@@ -115,7 +115,7 @@ fn the_array_is_calibrated_through_the_daemon_and_the_trackers_read_it_so() {
             "unknown tactile step",
         ),
         (
-            json!({"procedure": "joints"}),
+            json!({"procedure": "joints", "step": "sweep", "instrument_out": true}),
             "bad_argument",
             "not built yet",
         ),
@@ -340,7 +340,7 @@ fn the_command_line_prints_the_result_and_exits_by_it() {
     assert_eq!(code, Some(1), "{out}{err}");
     assert!(out.contains("NOT applied") && out.contains("FAIL"), "{out}");
     assert!(!dir.path().join("calibration.ron").exists());
-    let (code, out, err) = cli(&["joints"]);
+    let (code, out, err) = cli(&["joints", "sweep", "--instrument-out"]);
     assert_eq!(code, Some(1), "{out}{err}");
     assert!(err.contains("not built yet"), "{err}");
     daemon.stop();

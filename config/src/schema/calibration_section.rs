@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::validate::{Validate, Validator};
-use control::calibration::{TactileSettings, Tolerances, TouchSettings};
+use control::calibration::{JointSettings, TactileSettings, Tolerances, TouchSettings};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -21,6 +21,9 @@ pub struct CalibrationSection {
     pub tactile_recording_s: f64,
     /// The tissue-frame procedure's touches: thresholds, clearance and speeds.
     pub tissue: TouchSettings,
+    /// The joints' homing and stop sweep: the reset pose, the sweep's speed and torque cap,
+    /// and its pass limits.
+    pub joints: JointSettings,
 }
 
 impl Default for CalibrationSection {
@@ -31,6 +34,7 @@ impl Default for CalibrationSection {
             tactile: TactileSettings::default(),
             tactile_recording_s: 5.0,
             tissue: TouchSettings::default(),
+            joints: JointSettings::default(),
         }
     }
 }
@@ -47,6 +51,9 @@ impl Validate for CalibrationSection {
         v.in_range("tactile_recording_s", self.tactile_recording_s, 0.1, 600.0);
         if let Err(e) = self.tissue.check() {
             v.problem("tissue", e);
+        }
+        if let Err(e) = self.joints.check() {
+            v.problem("joints", e);
         }
     }
 }

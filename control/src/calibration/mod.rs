@@ -1,14 +1,16 @@
 //! Calibration math for bringing up a rig (issue 15): the pivot (incision) from rod lines, the
-//! tissue frame from touched surface points, and the tactile array's tare, gains and faulty
-//! elements; each result carries its residual and [`tolerance::Check`]s against configured
+//! tissue frame from touched surface points, the tactile array's tare, gains and faulty
+//! elements, and the joints' encoder zero and stops; each result carries its residual and [`tolerance::Check`]s against configured
 //! tolerances.
 //!
 //! Pure functions over recorded data: the procedures that move the arm and record the data,
 //! the calibration file and the daemon's verbs are not here (docs/calibration.md, "Rig
 //! calibration").
 
+pub mod joints;
 pub mod level_pivot;
 pub mod pivot;
+pub mod stop_search;
 pub mod tactile;
 mod tactile_applied;
 pub mod tissue_frame;
@@ -16,10 +18,14 @@ pub mod tolerance;
 pub mod touch;
 
 #[cfg(test)]
+mod joints_tests;
+#[cfg(test)]
 mod kinematics_tests;
 
+pub use joints::{JointSettings, JointsError, Side, StopFound, zero_checks, zero_offsets};
 pub use level_pivot::{LevelPivotError, LevelPivotFit, check_layout, fit_pivot_level};
 pub use pivot::{PivotFit, PivotFitError, RodLine, fit_pivot};
+pub use stop_search::{SearchStep, StopSearch};
 pub use tactile::{
     ElementCalibration, ElementStatus, Recording, TactileCalibration, TactileCalibrationError,
     TactileSettings, Tare, calibrate_gains,

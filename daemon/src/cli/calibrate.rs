@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use serde_json::{Value, json};
 
-use crate::cli::console::{Conn, Plain};
+use crate::cli::console::Conn;
 use crate::cli::failure;
 use crate::cli::stdout::outln;
 use crate::console::client::Client;
@@ -33,8 +33,32 @@ pub enum Procedure {
     /// The tissue frame: touch the surface at three or more points (and two along the
     /// artery) and fit where the tissue lies; the arm moves on its own.
     Tissue(TissueArgs),
-    /// Encoder homing and the joint stops (not built yet).
-    Joints(Plain),
+    /// The joints: the encoder zero from the reset pose (`home`; the stop sweep is not built
+    /// yet). The instrument must be out of the incision.
+    Joints {
+        #[command(subcommand)]
+        step: JointsStep,
+    },
+}
+
+#[derive(Debug, clap::Subcommand)]
+pub enum JointsStep {
+    /// Read the encoders with the unpowered arm resting in its reset pose and measure each
+    /// joint's zero offset; if it passes, write it to the calibration file and use it.
+    Home(JointsArgs),
+    /// The slow, torque-limited sweep to each joint's stops (not built yet: the daemon
+    /// refuses it, saying so).
+    Sweep(JointsArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct JointsArgs {
+    #[command(flatten)]
+    pub conn: Conn,
+    /// Acknowledge that the instrument is out of the incision (the procedure refuses to
+    /// run without it: docs/rig-bring-up.md section 1).
+    #[arg(long)]
+    pub instrument_out: bool,
 }
 
 #[derive(Debug, clap::Args)]
@@ -138,7 +162,16 @@ pub fn request(p: &Procedure) -> (&Conn, Value) {
                 "course_m": t.course.map(|c| [[c[0], c[1]], [c[2], c[3]]]),
                 "course_lateral_m": t.course_lateral_mm * 1e-3}),
         ),
-        Procedure::Joints(p) => (&p.conn, json!({"procedure": "joints"})),
+        Procedure::Joints { step } => {
+            let (name, a) = match step {
+                JointsStep::Home(a) => ("home", a),
+                JointsStep::Sweep(a) => ("sweep", a),
+            };
+            (
+                &a.conn,
+                json!({"procedure": "joints", "step": name, "instrument_out": a.instrument_out}),
+            )
+        }
     }
 }
 
@@ -181,6 +214,8 @@ fn run_on(c: &mut Client, req: &Value, raw: bool) -> Result<ExitCode, String> {
     if !raw {
         if procedure == "tissue" || procedure == "pivot" {
             eprintln!("touching {} points ...", reply["points"]);
+        } else if procedure == "joints" {
+            eprintln!("reading the encoders in the reset pose ...");
         } else {
             eprintln!(
                 "recording {} frames ({} s) ...",
@@ -278,6 +313,19 @@ fn print_tissue(e: &Value) {
     );
 }
 
+/// The homing's result: degrees for people.
+fn print_joints(e: &Value) {
+    outln!("encoder zero: joint: reset pose deg, read deg, offset deg");
+    for j in 0..3 {
+        outln!(
+            "  {j}: {:8.3} {:8.3} {:+8.3}",
+            num(&e["reset_pose_rad"][j]).to_degrees(),
+            num(&e["read_rad"][j]).to_degrees(),
+            num(&e["zero_offset_rad"][j]).to_degrees()
+        );
+    }
+}
+
 /// The pivot's result: millimetres for people.
 fn print_pivot(e: &Value) {
     let p = &e["pivot_in_base_m"];
@@ -318,6 +366,8 @@ fn print_result(e: &Value) {
         print_tissue(e);
     } else if e["procedure"] == "pivot" {
         print_pivot(e);
+    } else if e["procedure"] == "joints" {
+        print_joints(e);
     } else {
         print_elements(e);
     }

@@ -7,7 +7,7 @@ use serde_json::Value;
 
 /// The procedures the issue names; only those in `BUILT` run.
 const PROCEDURES: [&str; 4] = ["tactile", "pivot", "tissue", "joints"];
-const BUILT: [&str; 3] = ["tactile", "pivot", "tissue"];
+const BUILT: [&str; 4] = ["tactile", "pivot", "tissue", "joints"];
 
 /// Most surface points one tissue or pivot calibration touches (each takes some 15 s).
 pub const MAX_TOUCHES: usize = 16;
@@ -175,6 +175,49 @@ fn pivot(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, Request
     Ok(CalibrateStep::PivotTouch { points })
 }
 
+/// `{"verb": "calibrate", "procedure": "joints", "step": "home", "instrument_out": true}`:
+/// the homing, which needs the instrument out of the incision, acknowledged. The stop sweep
+/// (`"step": "sweep"`) is not built yet and is refused as such.
+fn joints(args: &mut Args) -> Result<CalibrateStep, RequestError> {
+    let id = args.id;
+    match string(args, "step")?.as_deref() {
+        None | Some("home") => {}
+        Some("sweep") => {
+            return Err(err(
+                Some(id),
+                ErrorCode::BadArgument,
+                "the joints' stop sweep is not built yet (docs/rig-bring-up.md section 1); built: home",
+            ));
+        }
+        Some(other) => {
+            return Err(err(
+                Some(id),
+                ErrorCode::BadArgument,
+                format!("unknown joints step {other:?}; known: home (sweep: not built yet)"),
+            ));
+        }
+    }
+    let instrument_out = match args.obj.remove("instrument_out") {
+        Some(Value::Bool(b)) => b,
+        None | Some(Value::Null) => false,
+        Some(other) => {
+            return Err(err(
+                Some(id),
+                ErrorCode::BadArgument,
+                format!("`instrument_out` must be true or false, got {other}"),
+            ));
+        }
+    };
+    if !instrument_out {
+        return Err(err(
+            Some(id),
+            ErrorCode::Refused,
+            "`calibrate joints` needs `instrument_out`: true: take the instrument out of the incision and rest the unpowered arm in its reset pose first (docs/rig-bring-up.md section 1)",
+        ));
+    }
+    Ok(CalibrateStep::JointsHome { instrument_out })
+}
+
 /// `{"verb": "calibrate", "procedure": "tactile", "step": "tare" | "load", ...}`, or the
 /// tissue or pivot procedure.
 pub(super) fn parse(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, RequestError> {
@@ -208,6 +251,9 @@ pub(super) fn parse(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateSt
     }
     if procedure == "pivot" {
         return pivot(args, limits);
+    }
+    if procedure == "joints" {
+        return joints(args);
     }
     let duration_s = args.optional_number("duration_s")?;
     if let Some(d) = duration_s

@@ -118,6 +118,9 @@ pub enum CalibrateStep {
     PivotTouch {
         points: Vec<control::frames::SurfacePoint>,
     },
+    /// The homing: the unpowered arm rests in its reset pose, the instrument out of the
+    /// incision (`instrument_out` acknowledges it); each joint's encoder zero offset.
+    JointsHome { instrument_out: bool },
 }
 
 impl CalibrateStep {
@@ -126,6 +129,7 @@ impl CalibrateStep {
             CalibrateStep::TactileTare { .. } | CalibrateStep::TactileLoad { .. } => "tactile",
             CalibrateStep::TissueTouch { .. } => "tissue",
             CalibrateStep::PivotTouch { .. } => "pivot",
+            CalibrateStep::JointsHome { .. } => "joints",
         }
     }
 
@@ -134,6 +138,7 @@ impl CalibrateStep {
             CalibrateStep::TactileTare { .. } => "tare",
             CalibrateStep::TactileLoad { .. } => "load",
             CalibrateStep::TissueTouch { .. } | CalibrateStep::PivotTouch { .. } => "touch",
+            CalibrateStep::JointsHome { .. } => "home",
         }
     }
 
@@ -141,7 +146,9 @@ impl CalibrateStep {
         match self {
             CalibrateStep::TactileTare { duration_s }
             | CalibrateStep::TactileLoad { duration_s, .. } => *duration_s,
-            CalibrateStep::TissueTouch { .. } | CalibrateStep::PivotTouch { .. } => None,
+            CalibrateStep::TissueTouch { .. }
+            | CalibrateStep::PivotTouch { .. }
+            | CalibrateStep::JointsHome { .. } => None,
         }
     }
 
@@ -251,6 +258,9 @@ impl Verb {
                         "course_m",
                         course.map_or(Value::Null, |c| Value::Array(c.iter().map(xz).collect())),
                     );
+                }
+                if let CalibrateStep::JointsHome { instrument_out } = c {
+                    put("instrument_out", (*instrument_out).into());
                 }
                 if let CalibrateStep::PivotTouch { points } = c {
                     let xz = |p: &control::frames::SurfacePoint| serde_json::json!([p.x_m, p.z_m]);

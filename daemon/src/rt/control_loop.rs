@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use crossbeam_channel::{Receiver, Sender, TrySendError};
 
-use control::types::{JointState, JointTorques};
+use control::types::{JointState, JointTorques, Joints};
 use drivers::burst_log::BurstLog;
 
 use crate::backend::{ArmPort, TactilePort};
@@ -114,6 +114,10 @@ pub struct ControlLoop {
     silence_until_s: f64,
     pending_reset: Option<PendingReset>,
     logs: PortLogs,
+    /// Added to every encoder angle the arm reports (a joints calibration's zero), rad.
+    zero_offset_rad: Joints,
+    /// A change of it this cycle, for the joint state read before it.
+    zero_shift: Option<Joints>,
 }
 
 impl std::fmt::Debug for ControlLoop {
@@ -148,8 +152,16 @@ impl ControlLoop {
             last_seq: 0,
             silence_until_s: f64::NEG_INFINITY,
             pending_reset: None,
+            zero_offset_rad: [0.0; 3],
+            zero_shift: None,
             logs: PortLogs::new(),
         }
+    }
+
+    /// Start with `offset_rad` added to every encoder angle (the calibration file's zero).
+    pub fn with_zero_offset(mut self, offset_rad: Joints) -> Self {
+        self.zero_offset_rad = offset_rad;
+        self
     }
 
     pub fn mode(&self) -> LoopMode {
@@ -170,12 +182,17 @@ impl ControlLoop {
         self.status.t_s = now;
         self.status.cycle += 1;
 
-        let joints = self.read_joints(now);
+        let mut joints = self.read_joints(now);
         self.drain_tactile(now);
         for _ in 0..MAX_COMMANDS_PER_CYCLE {
             match self.links.commands.try_recv() {
                 Ok(cmd) => self.apply(now, cmd, joints.as_ref()),
                 Err(_) => break,
+            }
+        }
+        if let (Some(d), Some(s)) = (self.zero_shift.take(), joints.as_mut()) {
+            for (q, d) in s.position_rad.iter_mut().zip(d) {
+                *q += d;
             }
         }
         if let Some(pending) = self.pending_reset {
@@ -230,10 +247,13 @@ impl ControlLoop {
 
     /// Read the joints and, if the data is usable, update the believed pose.
     fn fresh_joints(&mut self, now: f64) -> Result<JointState, JointsProblem> {
-        let state = self
+        let mut state = self
             .arm
             .read_joints()
             .map_err(|e| JointsProblem::Port(e.0))?;
+        for (q, o) in state.position_rad.iter_mut().zip(self.zero_offset_rad) {
+            *q += o;
+        }
         safety::check_joint_data(&self.limits, now, &state).map_err(JointsProblem::Data)?;
         self.status.position_rad = state.position_rad;
         self.status.velocity_rad_s = state.velocity_rad_s;
@@ -404,12 +424,60 @@ impl ControlLoop {
             ControlCommand::SetPivot { seq, pivot } => {
                 self.replace_model(now, seq, joints, |s, state| s.set_pivot(now, pivot, state))
             }
+            ControlCommand::SetJointZero { offset_rad, .. } => {
+                self.set_joint_zero(now, joints, offset_rad)
+            }
         };
         let event = match outcome {
             Ok(()) => ControlEvent::Done { seq, t_s: now },
             Err(why) => ControlEvent::Refused { seq, t_s: now, why },
         };
         self.send_event(event);
+    }
+
+    /// A joints calibration's zero: every angle from now on reads `offset_rad` more than the
+    /// encoders say; powered, the setpoint becomes the pose as newly read, so nothing moves.
+    fn set_joint_zero(
+        &mut self,
+        now: f64,
+        joints: Option<&JointState>,
+        offset_rad: Joints,
+    ) -> Result<(), Refusal> {
+        if !offset_rad.iter().all(|v| v.is_finite()) {
+            return Err(Refusal::Unreachable(FaultKind::NonFiniteCommand));
+        }
+        let mut delta = [0.0; 3];
+        for (j, d) in delta.iter_mut().enumerate() {
+            *d = offset_rad[j] - self.zero_offset_rad[j];
+        }
+        if self.status.mode == LoopMode::Enabled {
+            let Some(mut state) = joints.copied() else {
+                return Err(Refusal::CauseStillPresent(FaultKind::JointStale));
+            };
+            for (q, d) in state.position_rad.iter_mut().zip(delta) {
+                *q += d;
+            }
+            self.servo
+                .hold_here(now, &state)
+                .map_err(|f| Refusal::Unreachable(f.kind))?;
+            self.status.setpoint_rad = state.position_rad;
+            self.status.settled = false;
+        }
+        self.zero_offset_rad = offset_rad;
+        let mut shift = self.zero_shift.unwrap_or([0.0; 3]);
+        for (s, d) in shift.iter_mut().zip(delta) {
+            *s += d;
+        }
+        self.zero_shift = Some(shift);
+        let mut q = self.status.position_rad;
+        for (q, d) in q.iter_mut().zip(delta) {
+            *q += d;
+        }
+        self.status.position_rad = q;
+        self.refresh_pose(now, &q);
+        // Whoever hears the answer reads the new angles: the slot before the event.
+        self.links.status.write(&self.status);
+        Ok(())
     }
 
     /// A calibration's new kinematics (`replace`: a tissue frame or a pivot), holding where the

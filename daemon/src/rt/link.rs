@@ -45,6 +45,9 @@ pub enum ControlCommand {
         seq: u64,
         pivot: control::kinematics::PivotGeometry,
     },
+    /// Add `offset_rad` to every encoder angle from now on (a joints calibration's zero);
+    /// powered, the arm holds where it is.
+    SetJointZero { seq: u64, offset_rad: Joints },
     /// Latch an `estop` fault: power off at once.
     Estop { seq: u64 },
     /// Latch a fault the supervisor found (a failed recording): power off at once.
@@ -65,6 +68,7 @@ impl ControlCommand {
             | ControlCommand::MoveToPoint { seq, .. }
             | ControlCommand::SetPlacement { seq, .. }
             | ControlCommand::SetPivot { seq, .. }
+            | ControlCommand::SetJointZero { seq, .. }
             | ControlCommand::Estop { seq }
             | ControlCommand::Latch { seq, .. }
             | ControlCommand::Reset { seq }

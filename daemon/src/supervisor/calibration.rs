@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use serde_json::{Value, json};
 
 use config::calibration_file::{
-    self, CalibrationFile, CheckRecord, PivotRecord, TactileRecord, TissueRecord,
+    self, CalibrationFile, CheckRecord, JointsRecord, PivotRecord, TactileRecord, TissueRecord,
 };
 use control::calibration::{TactileCalibration, TactileSettings, Tare, Tolerances, all_passed};
 use control::sensor::ArrayGeometry;
@@ -42,6 +42,8 @@ pub struct CalibrationSettings {
     pub sensor: ArrayGeometry,
     /// The simulated clock's speed against the wall (1 on hardware).
     pub time_scale: f64,
+    /// The joints' homing: the reset pose and its pass limits.
+    pub joints: control::calibration::JointSettings,
 }
 
 /// A recording under way.
@@ -61,6 +63,8 @@ pub struct Calibration {
     pub(super) tissue: Option<TissueRecord>,
     /// The pivot in use, if a calibration found it.
     pub(super) pivot: Option<PivotRecord>,
+    /// The encoder zero in use, if a homing measured it.
+    pub(super) joints: Option<JointsRecord>,
     tare: Option<Tare>,
     recording: Option<Recording>,
     bench: Option<Box<dyn ArrayBench>>,
@@ -101,6 +105,19 @@ pub fn usable_pivot(record: &PivotRecord) -> Result<[f64; 3], String> {
     }
 }
 
+/// The zero offset of the file's joints record, if the daemon may use it (it passed its
+/// checks).
+pub fn usable_joints(record: &JointsRecord) -> Result<[f64; 3], String> {
+    if record.passed {
+        Ok(record.zero_offset_rad)
+    } else {
+        Err(format!(
+            "its joints calibration of {} did not pass its checks",
+            record.measured_utc
+        ))
+    }
+}
+
 /// The placement of the file's tissue record, if the daemon may use it (it passed its checks).
 pub fn usable_tissue(record: &TissueRecord) -> Result<control::frames::TissuePlacement, String> {
     if record.passed {
@@ -120,6 +137,7 @@ impl Calibration {
         applied: Option<TactileRecord>,
         tissue: Option<TissueRecord>,
         pivot: Option<PivotRecord>,
+        joints: Option<JointsRecord>,
         bench: Option<Box<dyn ArrayBench>>,
     ) -> Self {
         Self {
@@ -127,6 +145,7 @@ impl Calibration {
             applied,
             tissue,
             pivot,
+            joints,
             tare: None,
             recording: None,
             bench,
@@ -136,6 +155,11 @@ impl Calibration {
     /// The tissue frame a calibration placed, if any.
     pub fn tissue_record(&self) -> Option<&TissueRecord> {
         self.tissue.as_ref()
+    }
+
+    /// The encoder zero offset in use (zero without a joints calibration), rad.
+    pub fn joint_zero(&self) -> [f64; 3] {
+        self.joints.as_ref().map_or([0.0; 3], |r| r.zero_offset_rad)
     }
 
     /// The pivot a calibration found, if any.
@@ -179,6 +203,11 @@ impl Calibration {
                 "pivot_in_base_m": r.pivot_in_base_m,
                 "offset_m": r.offset_m,
                 "rms_residual_m": r.rms_residual_m,
+            })),
+            "joints": self.joints.as_ref().map(|r| json!({
+                "measured_utc": r.measured_utc,
+                "zero_offset_rad": r.zero_offset_rad,
+                "stops": r.stops,
             })),
             "tare_pending": self.tare.is_some(),
             "recording": self.recording.as_ref().map(|r| json!({
@@ -240,6 +269,9 @@ impl Supervisor {
         if let CalibrateStep::PivotTouch { points } = step {
             return self.pivot_start(id, to, points);
         }
+        if let CalibrateStep::JointsHome { .. } = step {
+            return self.joints_home(id, to);
+        }
         let cal = &mut self.calibration;
         if cal.recording.is_some() {
             return self.reply_err(
@@ -283,7 +315,9 @@ impl Supervisor {
                     CalibrateStep::TactileLoad {
                         load_per_element_n, ..
                     } => format!("under {load_per_element_n} N per element"),
-                    CalibrateStep::TissueTouch { .. } | CalibrateStep::PivotTouch { .. } => {
+                    CalibrateStep::TissueTouch { .. }
+                    | CalibrateStep::PivotTouch { .. }
+                    | CalibrateStep::JointsHome { .. } => {
                         String::new()
                     }
                 }
@@ -391,7 +425,9 @@ impl Supervisor {
             CalibrateStep::TactileLoad {
                 load_per_element_n, ..
             } => self.finish_tactile(r.step, &r.frames, load_per_element_n),
-            CalibrateStep::TissueTouch { .. } | CalibrateStep::PivotTouch { .. } => {}
+            CalibrateStep::TissueTouch { .. }
+            | CalibrateStep::PivotTouch { .. }
+            | CalibrateStep::JointsHome { .. } => {}
         }
     }
 

@@ -7,6 +7,7 @@
 
 mod artery_scene;
 pub mod calibration;
+mod joints_home;
 mod live_view;
 mod pivot_touch;
 mod report;
@@ -158,6 +159,8 @@ enum Purpose {
     SetPlacement,
     /// A pivot that passed and is written, handed to the loop.
     SetPivot,
+    /// An encoder zero that passed and is written, handed to the loop.
+    SetJointZero,
 }
 
 /// A motion that stopped short of its target (see `Supervisor::stopped_short`).
@@ -232,6 +235,8 @@ pub struct Supervisor {
     touching: Option<touch_run::TouchRun>,
     tissue_result: Option<(Value, config::calibration_file::TissueRecord)>,
     pivot_result: Option<(Value, config::calibration_file::PivotRecord)>,
+    /// The homing's result waiting for the loop to take the new encoder zero.
+    joints_result: Option<(Value, config::calibration_file::JointsRecord)>,
     pending: Vec<Pending>,
     timing: Option<PeriodSummary>,
     overruns_reported: u64,
@@ -307,6 +312,7 @@ impl Supervisor {
             touching: None,
             tissue_result: None,
             pivot_result: None,
+            joints_result: None,
             pending: Vec::new(),
             timing: None,
             overruns_reported: 0,
@@ -812,6 +818,7 @@ impl Supervisor {
                 }
                 Purpose::SetPlacement => self.tissue_applied(Some(reason.clone())),
                 Purpose::SetPivot => self.pivot_applied(Some(reason.clone())),
+                Purpose::SetJointZero => self.joints_applied(Some(reason.clone())),
                 Purpose::ShutdownHold => {}
                 _ => {}
             }
@@ -857,6 +864,7 @@ impl Supervisor {
             | Purpose::Latch => {}
             Purpose::SetPlacement => self.tissue_applied(None),
             Purpose::SetPivot => self.pivot_applied(None),
+            Purpose::SetJointZero => self.joints_applied(None),
         }
         if let Some((id, to)) = reply {
             let result = match p.purpose {

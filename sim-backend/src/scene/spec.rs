@@ -65,7 +65,41 @@ pub struct Scene {
     /// presses the sensor into the tissue).
     #[serde(default)]
     pub held_until_enabled: bool,
+    /// The joints' errors the joints calibration removes (docs/rig-bring-up.md section 1);
+    /// absent: encoders that read the true angles and stops 0.05 rad outside the configured
+    /// software limits.
+    #[serde(default)]
+    pub joints: Option<JointErrorsSpec>,
 }
+
+/// The arm's encoder zero and mechanical stops as they truly are.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct JointErrorsSpec {
+    /// The encoders read the true angle plus this (the arm was powered up away from the
+    /// pose the config's `zero_offset_rad` describes), rad.
+    pub encoder_zero_error_rad: [f64; 3],
+    /// How far each joint's (lower, upper) mechanical stop lies beyond the configured
+    /// software limit, rad; negative: inside it.
+    pub stop_beyond_limit_rad: [[f64; 2]; 3],
+    /// The arm starts in the reset pose (`calibration.joints.reset_pose_rad`, true angles)
+    /// with the instrument out of the incision (no rod, no tissue contact), held against
+    /// its reset fixture until it is first powered.
+    pub start_at_reset: bool,
+}
+
+impl Default for JointErrorsSpec {
+    fn default() -> Self {
+        Self {
+            encoder_zero_error_rad: [0.0; 3],
+            stop_beyond_limit_rad: [[DEFAULT_STOP_BEYOND_LIMIT_RAD; 2]; 3],
+            start_at_reset: false,
+        }
+    }
+}
+
+/// Where the simulated stops lie beyond the configured software limits unless a scene says.
+pub const DEFAULT_STOP_BEYOND_LIMIT_RAD: f64 = 0.05;
 
 /// How the surgeon puts the sensor on a placement.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

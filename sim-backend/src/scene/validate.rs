@@ -40,6 +40,18 @@ impl Validate for Scene {
         if let Some(r) = &self.robot {
             v.section("robot", r);
         }
+        if let Some(j) = &self.joints {
+            v.at("joints", |v| {
+                for (i, e) in j.encoder_zero_error_rad.iter().enumerate() {
+                    v.in_range(&format!("encoder_zero_error_rad[{i}]"), *e, -0.5, 0.5);
+                }
+                for (i, sides) in j.stop_beyond_limit_rad.iter().enumerate() {
+                    for (k, b) in sides.iter().enumerate() {
+                        v.in_range(&format!("stop_beyond_limit_rad[{i}][{k}]"), *b, -0.5, 0.5);
+                    }
+                }
+            });
+        }
         if let Some(f) = &self.faults {
             v.at("faults", |v| {
                 for (i, &e) in f.dead_elements.iter().enumerate() {

@@ -1,0 +1,225 @@
+//! The joints' homing end to end: the real daemon on a bench whose encoders were powered up
+//! 2 degrees off on joint 1 (a zero error the config does not know), the unpowered arm
+//! resting in its reset pose with the instrument out of the incision; `calibrate joints home`
+//! over the socket recovers the offset, writes it, hands it to the loop (the angles then read
+//! the reset pose), shows it in `status` and loads it at the next start. Refused: without the
+//! `instrument_out` acknowledgement, powered, and the stop sweep (not built yet). A record
+//! that did not pass stops the start naming the file; a full disk leaves the old zero in use.
+
+mod e2e;
+
+use std::path::Path;
+
+use e2e::{Setup, T, call, start, start_with_config, wait_event};
+use serde_json::{Value, json};
+
+/// The scene's error: the encoders read joint 1 this much more than it truly is.
+const ZERO_ERROR_RAD: [f64; 3] = [0.0, 0.0349066, 0.0];
+/// How close the recovered offset must come to it: a few encoder counts (the sim's joint 1
+/// has 2π / (1024 · 11.2) = 0.55 mrad per count), a fiftieth of the error.
+const RECOVERED_WITHIN_RAD: f64 = 0.7e-3;
+
+/// The pivot procedure's unweighted bench, its arm starting in the reset pose with the
+/// instrument out and the encoders carrying the error.
+fn scene_file(dir: &Path) -> String {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../config/scenes/pivot-off-arc-145-unweighted.ron"),
+    )
+    .expect("shipped scene");
+    let end = text.rfind(')').expect("the scene's closing bracket");
+    let joints = format!(
+        "    joints: (encoder_zero_error_rad: ({:?}, {:?}, {:?}), start_at_reset: true),\n",
+        ZERO_ERROR_RAD[0], ZERO_ERROR_RAD[1], ZERO_ERROR_RAD[2]
+    );
+    let scene = format!("{}{joints}{}", &text[..end], &text[end..]);
+    let path = dir.join("joints-error.ron");
+    std::fs::write(&path, scene).expect("write scene");
+    path.display().to_string()
+}
+
+fn setup(dir: &Path) -> Setup {
+    Setup {
+        scene: scene_file(dir),
+        ..Setup::default()
+    }
+}
+
+fn home() -> Value {
+    json!({"procedure": "joints", "step": "home", "instrument_out": true})
+}
+
+fn run(c: &mut daemon::console::client::Client) -> Value {
+    let r = call(c, "calibrate", home());
+    assert_eq!(r["procedure"], "joints", "{r}");
+    wait_event(c, "the homing's end", |e| {
+        e["event"] == "calibration"
+            && e["procedure"] == "joints"
+            && (e["phase"] == "done" || e["phase"] == "failed")
+    })
+}
+
+fn num(v: &Value) -> f64 {
+    v.as_f64().unwrap_or(f64::NAN)
+}
+
+fn position(c: &mut daemon::console::client::Client) -> [f64; 3] {
+    let s = call(c, "status", json!({}));
+    [0, 1, 2].map(|j| num(&s["arm"]["position_rad"][j]))
+}
+
+#[test]
+fn the_encoder_zero_is_measured_written_used_and_loaded_again() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let (daemon, mut c) = start(dir.path(), &setup(dir.path()));
+    call(
+        &mut c,
+        "subscribe",
+        json!({"streams": ["calibration", "faults"]}),
+    );
+    let before = position(&mut c);
+    assert!(
+        (before[1] - ZERO_ERROR_RAD[1]).abs() < RECOVERED_WITHIN_RAD,
+        "uncalibrated, joint 1 reads the error: {before:?}"
+    );
+    for (args, code, why) in [
+        (
+            json!({"procedure": "joints", "step": "home"}),
+            "refused",
+            "instrument_out",
+        ),
+        (
+            json!({"procedure": "joints", "step": "home", "instrument_out": "yes"}),
+            "bad_argument",
+            "true or false",
+        ),
+        (
+            json!({"procedure": "joints", "step": "sweep", "instrument_out": true}),
+            "bad_argument",
+            "not built yet",
+        ),
+        (
+            json!({"procedure": "joints", "step": "spin", "instrument_out": true}),
+            "bad_argument",
+            "unknown joints step",
+        ),
+    ] {
+        let r = c.request("calibrate", args.clone(), T).expect("reply");
+        assert_eq!(r["error"], code, "{args}: {r}");
+        e2e::assert_says(&r, "reason", why);
+    }
+    assert!(!dir.path().join("calibration.ron").exists());
+
+    let done = run(&mut c);
+    assert_eq!(done["phase"], "done", "{done}");
+    assert_eq!(done["passed"], true, "{done}");
+    assert_eq!(done["applied"], true, "{done}");
+    let offset = [0, 1, 2].map(|j| num(&done["zero_offset_rad"][j]));
+    eprintln!("recovered zero offsets {offset:?} rad against the scene's {ZERO_ERROR_RAD:?}");
+    for j in 0..3 {
+        assert!(
+            (offset[j] + ZERO_ERROR_RAD[j]).abs() < RECOVERED_WITHIN_RAD,
+            "joint {j}: offset {} rad, the error {} rad",
+            offset[j],
+            ZERO_ERROR_RAD[j]
+        );
+    }
+    // In use: the angles read the reset pose now.
+    let after = position(&mut c);
+    assert!(
+        after.iter().all(|q| q.abs() < RECOVERED_WITHIN_RAD),
+        "{after:?}"
+    );
+    let status = call(&mut c, "status", json!({}));
+    let record = config::calibration_file::load(&dir.path().join("calibration.ron"))
+        .expect("loads")
+        .expect("written")
+        .value
+        .joints
+        .expect("a joints record");
+    assert_eq!(
+        status["calibration"]["joints"]["measured_utc"],
+        json!(record.measured_utc),
+        "{status}"
+    );
+    daemon.stop();
+
+    // Loaded at the next start: the angles read the reset pose from the first cycle.
+    let (daemon, mut c) = start(dir.path(), &setup(dir.path()));
+    let again = position(&mut c);
+    assert!(
+        again.iter().all(|q| q.abs() < RECOVERED_WITHIN_RAD),
+        "{again:?}"
+    );
+    let status = call(&mut c, "status", json!({}));
+    assert_eq!(
+        status["calibration"]["joints"]["measured_utc"],
+        json!(record.measured_utc),
+        "{status}"
+    );
+    daemon.stop();
+
+    // A record that did not pass stops the start, naming the file.
+    let path = dir.path().join("calibration.ron");
+    let mut file = config::calibration_file::load(&path)
+        .expect("loads")
+        .expect("present")
+        .value;
+    if let Some(j) = file.joints.as_mut() {
+        j.passed = false;
+    }
+    config::calibration_file::save(&path, &file).expect("save");
+    let config = e2e::write_config(dir.path(), &setup(dir.path()));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-daemon"))
+        .arg("--config")
+        .arg(&config)
+        .output()
+        .expect("run");
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "a failed record is a config error"
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("calibration.ron") && err.contains("joints calibration"),
+        "{err}"
+    );
+}
+
+/// "Applied means written": with no room for the new file the zero is announced as not
+/// applied, the old file stays whole and the old zero stays in use.
+#[test]
+fn a_full_disk_leaves_the_old_zero_in_place_and_in_use() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let Some((config, small, path)) =
+        e2e::config_with_calibration_on_small_disk(dir.path(), &setup(dir.path()))
+    else {
+        return;
+    };
+    let (daemon, mut c) = start_with_config(dir.path(), config);
+    call(
+        &mut c,
+        "subscribe",
+        json!({"streams": ["calibration", "faults"]}),
+    );
+    let first = run(&mut c);
+    assert_eq!(first["applied"], true, "{first}");
+    let before = std::fs::read(&path).expect("written");
+    small.fill();
+    let second = run(&mut c);
+    e2e::assert_passed_but_not_saved(&second, &path, &before);
+    let status = call(&mut c, "status", json!({}));
+    let on_disk = config::calibration_file::load(&path)
+        .expect("loads")
+        .expect("present")
+        .value
+        .joints
+        .expect("joints");
+    assert_eq!(
+        status["calibration"]["joints"]["measured_utc"],
+        json!(on_disk.measured_utc),
+        "the zero in use is the one on disk: {status}"
+    );
+    daemon.stop();
+}
