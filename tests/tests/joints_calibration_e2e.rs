@@ -10,7 +10,7 @@ mod e2e;
 
 use std::path::Path;
 
-use e2e::{Setup, T, call, start, start_with_config, wait_event};
+use e2e::{Setup, T, call, start, start_with_config};
 use serde_json::{Value, json};
 
 /// The scene's error: the encoders read joint 1 this much more than it truly is.
@@ -49,23 +49,9 @@ fn home() -> Value {
     json!({"procedure": "joints", "step": "home", "instrument_out": true})
 }
 
-fn run(c: &mut daemon::console::client::Client) -> Value {
-    let r = call(c, "calibrate", home());
-    assert_eq!(r["procedure"], "joints", "{r}");
-    wait_event(c, "the homing's end", |e| {
-        e["event"] == "calibration"
-            && e["procedure"] == "joints"
-            && (e["phase"] == "done" || e["phase"] == "failed")
-    })
-}
-
-fn num(v: &Value) -> f64 {
-    v.as_f64().unwrap_or(f64::NAN)
-}
-
 fn position(c: &mut daemon::console::client::Client) -> [f64; 3] {
     let s = call(c, "status", json!({}));
-    [0, 1, 2].map(|j| num(&s["arm"]["position_rad"][j]))
+    [0, 1, 2].map(|j| e2e::num(&s["arm"]["position_rad"][j]))
 }
 
 #[test]
@@ -110,11 +96,11 @@ fn the_encoder_zero_is_measured_written_used_and_loaded_again() {
     }
     assert!(!dir.path().join("calibration.ron").exists());
 
-    let done = run(&mut c);
+    let done = e2e::calibrate_and_wait(&mut c, home());
     assert_eq!(done["phase"], "done", "{done}");
     assert_eq!(done["passed"], true, "{done}");
     assert_eq!(done["applied"], true, "{done}");
-    let offset = [0, 1, 2].map(|j| num(&done["zero_offset_rad"][j]));
+    let offset = [0, 1, 2].map(|j| e2e::num(&done["zero_offset_rad"][j]));
     eprintln!("recovered zero offsets {offset:?} rad against the scene's {ZERO_ERROR_RAD:?}");
     for j in 0..3 {
         assert!(
@@ -203,11 +189,11 @@ fn a_full_disk_leaves_the_old_zero_in_place_and_in_use() {
         "subscribe",
         json!({"streams": ["calibration", "faults"]}),
     );
-    let first = run(&mut c);
+    let first = e2e::calibrate_and_wait(&mut c, home());
     assert_eq!(first["applied"], true, "{first}");
     let before = std::fs::read(&path).expect("written");
     small.fill();
-    let second = run(&mut c);
+    let second = e2e::calibrate_and_wait(&mut c, home());
     e2e::assert_passed_but_not_saved(&second, &path, &before);
     let status = call(&mut c, "status", json!({}));
     let on_disk = config::calibration_file::load(&path)

@@ -40,25 +40,6 @@ fn request() -> Value {
     json!({"procedure": "pivot", "points_m": PLATE_M})
 }
 
-/// Send `args` and wait for the procedure's end (`done` or `failed`).
-fn run(c: &mut daemon::console::client::Client, args: Value) -> Value {
-    let r = call(c, "calibrate", args);
-    assert_eq!(r["procedure"], "pivot", "{r}");
-    wait_end(c)
-}
-
-fn wait_end(c: &mut daemon::console::client::Client) -> Value {
-    wait_event(c, "the pivot calibration's end", |e| {
-        e["event"] == "calibration"
-            && e["procedure"] == "pivot"
-            && (e["phase"] == "done" || e["phase"] == "failed")
-    })
-}
-
-fn num(v: &Value) -> f64 {
-    v.as_f64().unwrap_or(f64::NAN)
-}
-
 #[test]
 fn the_pivot_is_found_by_touch_written_used_and_loaded_again() {
     let dir = tempfile::tempdir().expect("tmp");
@@ -95,18 +76,18 @@ fn the_pivot_is_found_by_touch_written_used_and_loaded_again() {
     assert_eq!(e2e::state(&mut c), "holding");
     assert!(!dir.path().join("calibration.ron").exists());
 
-    let done = run(&mut c, request());
+    let done = e2e::calibrate_and_wait(&mut c, request());
     assert_eq!(done["phase"], "done", "{done}");
     assert_eq!(done["passed"], true, "{done}");
     assert_eq!(done["applied"], true, "{done}");
     for i in 0..2 {
-        let error = num(&done["offset_m"][i]) - TRUE_OFFSET_M[i];
+        let error = e2e::num(&done["offset_m"][i]) - TRUE_OFFSET_M[i];
         assert!(
             error.abs() < RECOVERED_WITHIN_M,
             "offset {i} off by {error} m: {done}"
         );
     }
-    assert!(num(&done["rms_residual_m"]) < 0.2e-3, "{done}");
+    assert!(e2e::num(&done["rms_residual_m"]) < 0.2e-3, "{done}");
     eprintln!(
         "pivot fit: offset {} m, standard error {} m, residual {} m",
         done["offset_m"], done["standard_error_m"], done["rms_residual_m"]
@@ -136,7 +117,7 @@ fn the_pivot_is_found_by_touch_written_used_and_loaded_again() {
         e["event"] == "calibration" && e["phase"] == "touched"
     });
     call(&mut c, "stop", json!({}));
-    let stopped = wait_end(&mut c);
+    let stopped = e2e::wait_calibration_end(&mut c, "pivot");
     assert_eq!(stopped["phase"], "failed", "{stopped}");
     e2e::assert_says(&stopped, "reason", "stopped");
     e2e::wait_state(&mut c, "holding");
@@ -216,7 +197,7 @@ fn the_pivot_is_found_by_touch_written_used_and_loaded_again() {
             .as_array()
             .expect("trials")
             .iter()
-            .map(|t| num(&t["lateral_error_m"]["mean"]).abs())
+            .map(|t| e2e::num(&t["lateral_error_m"]["mean"]).abs())
             .fold(0.0, f64::max)
     };
     let without = sim(&[]);
@@ -250,11 +231,11 @@ fn a_full_disk_leaves_the_old_pivot_in_place_and_in_use() {
         json!({"streams": ["calibration", "faults"]}),
     );
     call(&mut c, "enable", json!({}));
-    let first = run(&mut c, request());
+    let first = e2e::calibrate_and_wait(&mut c, request());
     assert_eq!(first["applied"], true, "{first}");
     let before = std::fs::read(&path).expect("written");
     small.fill();
-    let second = run(&mut c, request());
+    let second = e2e::calibrate_and_wait(&mut c, request());
     e2e::assert_passed_but_not_saved(&second, &path, &before);
     let on_disk = config::calibration_file::load(&path)
         .expect("loads")

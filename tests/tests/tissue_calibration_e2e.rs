@@ -49,21 +49,6 @@ fn request_with_course() -> Value {
         "course_lateral_m": CHORD_Z_M})
 }
 
-/// Send `args` and wait for the procedure's end (`done` or `failed`).
-fn run(c: &mut daemon::console::client::Client, args: Value) -> Value {
-    let r = call(c, "calibrate", args);
-    assert_eq!(r["procedure"], "tissue", "{r}");
-    wait_event(c, "the tissue calibration's end", |e| {
-        e["event"] == "calibration"
-            && e["procedure"] == "tissue"
-            && (e["phase"] == "done" || e["phase"] == "failed")
-    })
-}
-
-fn num(v: &Value) -> f64 {
-    v.as_f64().unwrap_or(f64::NAN)
-}
-
 #[test]
 fn the_tissue_frame_is_found_by_touch_written_used_and_loaded_again() {
     let dir = tempfile::tempdir().expect("tmp");
@@ -142,18 +127,21 @@ fn the_tissue_frame_is_found_by_touch_written_used_and_loaded_again() {
     assert_eq!(done["phase"], "done", "{done}");
     assert_eq!(done["passed"], true, "{done}");
     assert_eq!(done["applied"], true, "{done}");
-    let yaw_error = num(&done["placement"]["yaw_rad"]) - TRUE_YAW_RAD;
+    let yaw_error = e2e::num(&done["placement"]["yaw_rad"]) - TRUE_YAW_RAD;
     assert!(
         yaw_error.abs() < 0.2f64.to_radians(),
         "yaw off by {yaw_error} rad: {done}"
     );
     let change = &done["origin_change_m"];
-    assert!((num(&change[1]) - TRUE_RISE_M).abs() < 0.2e-3, "{done}");
     assert!(
-        num(&change[0]).abs() < 0.5e-3 && num(&change[2]).abs() < 0.5e-3,
+        (e2e::num(&change[1]) - TRUE_RISE_M).abs() < 0.2e-3,
         "{done}"
     );
-    assert!(num(&done["rms_residual_m"]) < 0.2e-3, "{done}");
+    assert!(
+        e2e::num(&change[0]).abs() < 0.5e-3 && e2e::num(&change[2]).abs() < 0.5e-3,
+        "{done}"
+    );
+    assert!(e2e::num(&done["rms_residual_m"]) < 0.2e-3, "{done}");
 
     // On disk before it was announced, in the status, and in the kinematics: the sensor
     // is now placed in the fitted frame.
@@ -220,7 +208,7 @@ fn the_tissue_frame_is_found_by_touch_written_used_and_loaded_again() {
             .as_array()
             .expect("trials")
             .iter()
-            .map(|t| num(&t["lateral_error_m"]["sd"]))
+            .map(|t| e2e::num(&t["lateral_error_m"]["sd"]))
             .fold(0.0, f64::max)
     };
     let without = sim(&[]);
@@ -250,11 +238,13 @@ fn a_full_disk_leaves_the_old_tissue_frame_in_place_and_in_use() {
         json!({"streams": ["calibration", "faults"]}),
     );
     call(&mut c, "enable", json!({}));
-    let first = run(&mut c, json!({"procedure": "tissue", "points_m": PATCH_M}));
+    let first =
+        e2e::calibrate_and_wait(&mut c, json!({"procedure": "tissue", "points_m": PATCH_M}));
     assert_eq!(first["applied"], true, "{first}");
     let before = std::fs::read(&path).expect("written");
     small.fill();
-    let second = run(&mut c, json!({"procedure": "tissue", "points_m": PATCH_M}));
+    let second =
+        e2e::calibrate_and_wait(&mut c, json!({"procedure": "tissue", "points_m": PATCH_M}));
     e2e::assert_passed_but_not_saved(&second, &path, &before);
     let on_disk = config::calibration_file::load(&path)
         .expect("loads")
@@ -287,7 +277,7 @@ fn a_sensor_the_arm_cannot_lift_clear_is_refused_not_measured() {
         json!({"streams": ["calibration", "faults"]}),
     );
     call(&mut c, "enable", json!({}));
-    let end = run(&mut c, json!({"procedure": "tissue", "points_m": PATCH_M}));
+    let end = e2e::calibrate_and_wait(&mut c, json!({"procedure": "tissue", "points_m": PATCH_M}));
     assert_eq!(end["phase"], "failed", "{end}");
     e2e::assert_says(&end, "reason", "on the tissue already while it rested");
     assert!(!dir.path().join("calibration.ron").exists());

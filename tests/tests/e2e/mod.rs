@@ -422,3 +422,25 @@ pub fn sim_two_trials(scene: &str, extra: &[&str]) -> Value {
         .expect("sim");
     serde_json::from_slice(&out.stdout).unwrap_or(Value::Null)
 }
+
+/// Wait for a calibration procedure's end (`done` or `failed`).
+pub fn wait_calibration_end(c: &mut Client, procedure: &str) -> Value {
+    wait_event(c, &format!("the {procedure} calibration's end"), |e| {
+        e["event"] == "calibration"
+            && e["procedure"] == procedure
+            && (e["phase"] == "done" || e["phase"] == "failed")
+    })
+}
+
+/// Send a `calibrate` request (`args` name the procedure) and wait for its end.
+pub fn calibrate_and_wait(c: &mut Client, args: Value) -> Value {
+    let procedure = args["procedure"].as_str().unwrap_or("?").to_string();
+    let r = call(c, "calibrate", args);
+    assert_eq!(r["procedure"], procedure.as_str(), "{r}");
+    wait_calibration_end(c, &procedure)
+}
+
+/// A JSON number, NaN if it is not one (a comparison with it then fails, naming the value).
+pub fn num(v: &Value) -> f64 {
+    v.as_f64().unwrap_or(f64::NAN)
+}
