@@ -147,29 +147,16 @@ fn the_encoder_zero_is_measured_written_used_and_loaded_again() {
 
     // A record that did not pass stops the start, naming the file.
     let path = dir.path().join("calibration.ron");
-    let mut file = config::calibration_file::load(&path)
-        .expect("loads")
-        .expect("present")
-        .value;
-    if let Some(j) = file.joints.as_mut() {
-        j.passed = false;
-    }
-    config::calibration_file::save(&path, &file).expect("save");
     let config = e2e::write_config(dir.path(), &setup(dir.path()));
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-daemon"))
-        .arg("--config")
-        .arg(&config)
-        .output()
-        .expect("run");
-    assert_eq!(
-        out.status.code(),
-        Some(2),
-        "a failed record is a config error"
-    );
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("calibration.ron") && err.contains("joints calibration"),
-        "{err}"
+    e2e::failed_record_stops_the_start(
+        &config,
+        &path,
+        |f| {
+            if let Some(j) = f.joints.as_mut() {
+                j.passed = false;
+            }
+        },
+        "joints calibration",
     );
 }
 

@@ -159,34 +159,17 @@ fn the_pivot_is_found_by_touch_written_used_and_loaded_again() {
     daemon.stop();
 
     // A record that failed its checks stops the start, naming the file.
-    let mut failed = config::calibration_file::load(&path)
-        .expect("loads")
-        .expect("there")
-        .value;
-    if let Some(p) = failed.pivot.as_mut() {
-        p.passed = false;
-    }
-    config::calibration_file::save(&path, &failed).expect("saved");
     let config = e2e::write_config(dir.path(), &setup());
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-daemon"))
-        .arg("--config")
-        .arg(&config)
-        .output()
-        .expect("daemon");
-    assert_eq!(out.status.code(), Some(2), "{out:?}");
-    let said = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        said.contains("calibration.ron") && said.contains("its pivot"),
-        "{said}"
+    e2e::failed_record_stops_the_start(
+        &config,
+        &path,
+        |f| {
+            if let Some(p) = f.pivot.as_mut() {
+                p.passed = false;
+            }
+        },
+        "its pivot",
     );
-    config::calibration_file::save(&path, &{
-        let mut f = failed;
-        if let Some(p) = f.pivot.as_mut() {
-            p.passed = true;
-        }
-        f
-    })
-    .expect("saved");
 
     // A tracker run through the calibration against one without it (the lockstep runner,
     // seeds 1 and 2, the mass back on): the wrong pivot puts every reported point to one

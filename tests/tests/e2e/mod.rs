@@ -444,3 +444,36 @@ pub fn calibrate_and_wait(c: &mut Client, args: Value) -> Value {
 pub fn num(v: &Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
 }
+
+/// A calibration record that did not pass (`fail` marks it so) stops the daemon's start
+/// with `config` (exit 2), naming the file and `names`; the file is put back as it was.
+pub fn failed_record_stops_the_start(
+    config: &Path,
+    file: &Path,
+    fail: impl FnOnce(&mut config::calibration_file::CalibrationFile),
+    names: &str,
+) {
+    let before = std::fs::read(file).expect("the calibration file");
+    let mut failed = config::calibration_file::load(file)
+        .expect("loads")
+        .expect("there")
+        .value;
+    fail(&mut failed);
+    config::calibration_file::save(file, &failed).expect("saved");
+    let out = Command::new(env!("CARGO_BIN_EXE_pt-daemon"))
+        .arg("--config")
+        .arg(config)
+        .output()
+        .expect("daemon");
+    std::fs::write(file, before).expect("put back");
+    assert_eq!(out.status.code(), Some(2), "a failed record: {out:?}");
+    let said = String::from_utf8_lossy(&out.stderr);
+    let name = file
+        .file_name()
+        .map(|n| n.to_string_lossy())
+        .unwrap_or_default();
+    assert!(
+        said.contains(name.as_ref()) && said.contains(names),
+        "{said}"
+    );
+}
