@@ -240,12 +240,13 @@ fn calibration_at_start(
         .map_err(|e| StartError::Control(format!("calibration file: {e}")))?
         .map(|l| l.value)
         .unwrap_or_default();
-    let tissue = match file.tissue {
-        None => None,
-        Some(r) => {
-            let p = crate::supervisor::calibration::usable_tissue(&r).map_err(|e| {
-                StartError::Control(format!("calibration file {}: {e}", settings.file.display()))
-            })?;
+    let unusable = |e: String| {
+        StartError::Control(format!("calibration file {}: {e}", settings.file.display()))
+    };
+    let tissue = file
+        .tissue
+        .map(|r| {
+            let p = crate::supervisor::calibration::usable_tissue(&r).map_err(unusable)?;
             tracing::info!(
                 "tissue frame of {} from {} in use: origin {:?} m, yaw {:.3} deg",
                 r.measured_utc,
@@ -253,15 +254,13 @@ fn calibration_at_start(
                 p.origin_in_base_m,
                 p.yaw_rad.to_degrees()
             );
-            Some(r)
-        }
-    };
-    let pivot = match file.pivot {
-        None => None,
-        Some(r) => {
-            let p = crate::supervisor::calibration::usable_pivot(&r).map_err(|e| {
-                StartError::Control(format!("calibration file {}: {e}", settings.file.display()))
-            })?;
+            Ok::<_, StartError>(r)
+        })
+        .transpose()?;
+    let pivot = file
+        .pivot
+        .map(|r| {
+            let p = crate::supervisor::calibration::usable_pivot(&r).map_err(unusable)?;
             tracing::info!(
                 "pivot of {} from {} in use: {:?} m (moved {:+.2}, {:+.2} mm in base x, z)",
                 r.measured_utc,
@@ -270,24 +269,22 @@ fn calibration_at_start(
                 r.offset_m[0] * 1e3,
                 r.offset_m[1] * 1e3
             );
-            Some(r)
-        }
-    };
-    let joints = match file.joints {
-        None => None,
-        Some(r) => {
-            let o = crate::supervisor::calibration::usable_joints(&r).map_err(|e| {
-                StartError::Control(format!("calibration file {}: {e}", settings.file.display()))
-            })?;
+            Ok::<_, StartError>(r)
+        })
+        .transpose()?;
+    let joints = file
+        .joints
+        .map(|r| {
+            let o = crate::supervisor::calibration::usable_joints(&r).map_err(unusable)?;
             tracing::info!(
                 "encoder zero of {} from {} in use: offsets {:?} rad",
                 r.measured_utc,
                 settings.file.display(),
                 o
             );
-            Some(r)
-        }
-    };
+            Ok::<_, StartError>(r)
+        })
+        .transpose()?;
     let tactile = match file.tactile {
         None => {
             tracing::info!(

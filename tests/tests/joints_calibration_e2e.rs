@@ -10,7 +10,7 @@ mod e2e;
 
 use std::path::Path;
 
-use e2e::{Setup, T, call, start, start_with_config};
+use e2e::{Setup, T, call, start};
 use serde_json::{Value, json};
 
 /// The scene's error: the encoders read joint 1 this much more than it truly is.
@@ -165,17 +165,11 @@ fn the_encoder_zero_is_measured_written_used_and_loaded_again() {
 #[test]
 fn a_full_disk_leaves_the_old_zero_in_place_and_in_use() {
     let dir = tempfile::tempdir().expect("tmp");
-    let Some((config, small, path)) =
-        e2e::config_with_calibration_on_small_disk(dir.path(), &setup(dir.path()))
+    let Some((daemon, mut c, small, path)) =
+        e2e::start_on_small_disk(dir.path(), &setup(dir.path()))
     else {
         return;
     };
-    let (daemon, mut c) = start_with_config(dir.path(), config);
-    call(
-        &mut c,
-        "subscribe",
-        json!({"streams": ["calibration", "faults"]}),
-    );
     let first = e2e::calibrate_and_wait(&mut c, home());
     assert_eq!(first["applied"], true, "{first}");
     let before = std::fs::read(&path).expect("written");

@@ -10,7 +10,7 @@
 
 mod e2e;
 
-use e2e::{Setup, T, call, start, start_with_config, wait_event};
+use e2e::{Setup, T, call, start, wait_event};
 use serde_json::{Value, json};
 
 const SCENE: &str = "tissue-misplaced-arc-145-unweighted.ron";
@@ -226,17 +226,9 @@ fn the_tissue_frame_is_found_by_touch_written_used_and_loaded_again() {
 #[test]
 fn a_full_disk_leaves_the_old_tissue_frame_in_place_and_in_use() {
     let dir = tempfile::tempdir().expect("tmp");
-    let Some((config, small, path)) =
-        e2e::config_with_calibration_on_small_disk(dir.path(), &setup())
-    else {
+    let Some((daemon, mut c, small, path)) = e2e::start_on_small_disk(dir.path(), &setup()) else {
         return;
     };
-    let (daemon, mut c) = start_with_config(dir.path(), config);
-    call(
-        &mut c,
-        "subscribe",
-        json!({"streams": ["calibration", "faults"]}),
-    );
     call(&mut c, "enable", json!({}));
     let first =
         e2e::calibrate_and_wait(&mut c, json!({"procedure": "tissue", "points_m": PATCH_M}));

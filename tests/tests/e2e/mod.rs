@@ -477,3 +477,20 @@ pub fn failed_record_stops_the_start(
         "{said}"
     );
 }
+
+/// The daemon started with its calibration file on a small disk, subscribed to the
+/// calibration and fault streams: the daemon, its client, the disk and the file's path;
+/// `None` where no small disk can be made (not root).
+pub fn start_on_small_disk(
+    dir: &Path,
+    setup: &Setup,
+) -> Option<(Running, Client, SmallDisk, PathBuf)> {
+    let (config, small, path) = config_with_calibration_on_small_disk(dir, setup)?;
+    let (daemon, mut c) = start_with_config(dir, config);
+    call(
+        &mut c,
+        "subscribe",
+        json!({"streams": ["calibration", "faults"]}),
+    );
+    Some((daemon, c, small, path))
+}
