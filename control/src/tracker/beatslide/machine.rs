@@ -201,11 +201,13 @@ enum State {
         attempt: usize,
     },
     /// Going to where the next search at rest is made (back to the last fix, or the probe
-    /// ahead of it).
+    /// ahead of it). Going back, with `listen_returning`, it listens for the pulse in
+    /// windows, the current one from `from_s` (`machine/lost.rs`).
     Returning {
         target: SurfacePoint,
         frames: u64,
         attempt: usize,
+        from_s: Option<f64>,
     },
     /// Listening at rest for a weak pulse (`machine/weak.rs`; what for is in `listen`).
     Listening,
@@ -1138,7 +1140,8 @@ impl Tracker for BeatSlide {
                 target,
                 frames,
                 attempt,
-            } => self.step_returning(input, target, frames, attempt),
+                from_s,
+            } => self.step_returning(input, target, frames, attempt, from_s),
             State::Listening => self.step_listening(input),
             State::WeakStepping(step) => self.step_weak_stepping(input, step),
         }
@@ -1881,6 +1884,141 @@ mod tests {
         for bad in [-0.01, 0.5, f64::NAN, f64::INFINITY] {
             let e = tracker(bad).err().map(|e| e.0).unwrap_or_default();
             assert!(e.contains("tilt_deflection"), "{bad}: {e}");
+        }
+    }
+
+    /// On the way back to the last fix after a loss: `with_pulse` (a clear, regular pulse,
+    /// one beat per fix), the last fix at the second seed point, going back along -x.
+    fn going_back(usual_n: f64) -> BeatSlide {
+        let mut t = with_pulse(usual_n);
+        if let Some(p) = &mut t.pulse {
+            p.late_rms_s = 0.01;
+        }
+        let last = SurfacePoint::new(0.005, 0.0);
+        t.last_fix = Some(last);
+        t.state = State::Returning {
+            target: last,
+            frames: 3,
+            attempt: 2,
+            from_s: Some(9.0),
+        };
+        t
+    }
+
+    /// A clear fix heard going back, 8 mm to the side of the straight path 7 mm past the
+    /// last fix (a bend the slide outran); no lag (the window where the return began).
+    fn heard_going_back() -> BeatFix {
+        let mut f = fix(0.008);
+        f.kernel.amplitude = 12.0;
+        f.sensor = SurfacePoint::new(0.012, 0.0);
+        f.lag_dir = [0.0, 0.0];
+        f
+    }
+
+    #[test]
+    fn a_clear_fix_heard_going_back_turns_the_path_and_the_slide_goes_on_unreported() {
+        let mut t = going_back(0.08);
+        let heard = heard_going_back();
+        let point = t.judge_returning(&heard).expect("a clear fix on the array");
+        assert!(point.distance_to(&SurfacePoint::new(0.012, 0.008)) < 1e-3, "{point:?}");
+        t.refound_returning(&heard, point, heard.sensor, 10.0);
+        let located = std::iter::from_fn(|| t.events.pop())
+            .filter(|e| matches!(e, TrackerEvent::Located(_)))
+            .count();
+        assert_eq!(located, 0, "a freely timed fix steers, it is not reported");
+        assert!(matches!(t.state, State::Sliding { .. }), "{:?}", t.state);
+        assert_eq!(t.last_fix, Some(point));
+        // The path model now runs through the fix, turned toward it.
+        let f = t.filter.expect("a path model");
+        let (s, _) = f.to_local(point);
+        let there = f.predict(s);
+        assert!(there.point.distance_to(&point) < 1e-3, "{there:?} {point:?}");
+        assert!(there.heading_rad > 0.3, "heading {}", there.heading_rad);
+        // The slide goes on ahead of the fix, not back toward the last one.
+        let State::Sliding { target, .. } = t.state else {
+            unreachable!()
+        };
+        assert!(f.to_local(target).0 > s, "target {target:?}");
+    }
+
+    #[test]
+    fn going_back_a_weak_faint_or_edge_fix_is_refused_and_nothing_changes() {
+        let weak = |f: &mut BeatFix| f.kernel.amplitude = 9.0;
+        let at_edge = |f: &mut BeatFix| f.kernel.at_edge = true;
+        let beyond = |f: &mut BeatFix| f.kernel.element = 9.7;
+        let loose = |f: &mut BeatFix| f.kernel.offset_se_m = 0.005;
+        let cases: [(&str, f64, &dyn Fn(&mut BeatFix)); 5] = [
+            ("weak", 0.08, &weak),
+            ("at the edge", 0.08, &at_edge),
+            ("beyond the array", 0.08, &beyond),
+            ("loosely placed", 0.08, &loose),
+            ("faint", 1e3, &|_: &mut BeatFix| {}),
+        ];
+        for (what, usual_n, change) in cases {
+            let mut t = going_back(usual_n);
+            let mut heard = heard_going_back();
+            change(&mut heard);
+            let filter = t.filter;
+            assert!(t.judge_returning(&heard).is_err(), "{what}");
+            assert_eq!(t.filter, filter, "{what}: the path model is unchanged");
+            assert_eq!(t.last_fix, Some(SurfacePoint::new(0.005, 0.0)), "{what}");
+        }
+    }
+
+    #[test]
+    fn heard_going_back_once_too_often_the_track_ends_lost() {
+        let mut t = going_back(0.08);
+        t.returns = t.params.max_returns;
+        let heard = heard_going_back();
+        let point = t.judge_returning(&heard).expect("a clear fix on the array");
+        t.refound_returning(&heard, point, heard.sensor, 10.0);
+        assert_eq!(t.state, State::Finished(EndReason::Lost));
+    }
+
+    /// A regular heart's clear pulse goes back listening at once; an irregular heart's, a
+    /// weak pulse's (several beats per fix), or with `listen_returning` off, it searches
+    /// where it stopped first.
+    #[test]
+    fn only_a_regular_hearts_clear_pulse_goes_back_without_searching_where_it_stopped() {
+        let after_stop = |change: &dyn Fn(&mut BeatSlide)| {
+            let mut t = going_back(0.08);
+            t.state = State::Stopping {
+                frames: 5,
+                attempt: 1,
+            };
+            change(&mut t);
+            let frame = crate::types::TactileFrame {
+                t_s: 20.0,
+                seq: 1,
+                force_n: [0.0; crate::types::ELEMENTS],
+            };
+            let input = TrackerInput {
+                frame: &frame,
+                sensor: SurfacePoint::new(0.03, 0.0),
+                settled: true,
+                loaded_sensor: None,
+            };
+            t.step_stopping(&input, 5, 1);
+            t.state
+        };
+        assert!(matches!(
+            after_stop(&|_| {}),
+            State::Returning { attempt: 2, .. }
+        ));
+        let searches = [
+            after_stop(&|t| {
+                if let Some(p) = &mut t.pulse {
+                    p.late_rms_s = 0.2;
+                }
+            }),
+            after_stop(&|t| t.beats_per_fix = 3),
+            after_stop(&|t| t.params.listen_returning = false),
+        ];
+        for state in searches {
+            assert!(
+                matches!(state, State::Searching { attempt: 1, .. }),
+                "{state:?}"
+            );
         }
     }
 }

@@ -89,6 +89,14 @@ pub struct BeatSlideParams {
     pub tilt_deflection: f64,
     /// Speed of the moves back to the last fix, m/s.
     pub return_speed_m_s: f64,
+    /// After a loss, listen for the pulse in windows while going back to the last fix: a
+    /// clear fix on the way (timed on the whole array) re-seeds the path model from the
+    /// last fix to it and the slide goes on from there, without the search at the last fix
+    /// and the probe. Such a fix steers and is never reported. A regular heart's clear
+    /// pulse (one beat per fix) then goes back at once, without the search where it
+    /// stopped (`machine/lost.rs`). `false`: the searches at rest alone, as before
+    /// 2026-11-28 (docs/tracker-beatslide.md, "Listening on the way back").
+    pub listen_returning: bool,
     /// The first mark is made from both sides: a stroke this far along +z and back, a mark,
     /// the same along -z, a second mark, and their midpoint is the seed point, so that
     /// where the rod rests off the belief cancels (`machine/seating.rs`), m; 0 (the
@@ -151,6 +159,7 @@ impl Default for BeatSlideParams {
             // The seed's bench as simulated (docs/tracker-beatslide.md, "Tilt deflection").
             tilt_deflection: 0.027,
             return_speed_m_s: 0.01,
+            listen_returning: true,
             seat_stroke_m: 0.0,
             load_gate_m: 0.0015,
             weak_limit_s: 300.0,

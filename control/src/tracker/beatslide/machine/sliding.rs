@@ -15,8 +15,8 @@ const PER_BEAT_SNR_MARGIN: f64 = 1.5;
 /// missed the artery. At 1.5 × `fix_snr` alone, two weak arteries of the tuning draws
 /// (seed-bench-mixed, 1001-1030) were left for a lump 4-6 elements away; one was reported
 /// 11 mm off.
-const ON_ARRAY_SNR_MARGIN: f64 = 2.0;
-const ON_ARRAY_USUAL_FRACTION: f64 = 0.7;
+pub(super) const ON_ARRAY_SNR_MARGIN: f64 = 2.0;
+pub(super) const ON_ARRAY_USUAL_FRACTION: f64 = 0.7;
 
 impl BeatSlide {
     /// The next target and speed from the path filter, for the sensor at `sensor`.
@@ -88,7 +88,7 @@ impl BeatSlide {
     }
 
     /// Do this heart's beats come off the clock by `IRREGULAR_LATE_FRACTION` of a period?
-    fn heart_irregular(&self) -> bool {
+    pub(super) fn heart_irregular(&self) -> bool {
         self.pulse
             .is_some_and(|p| p.late_rms_s >= IRREGULAR_LATE_FRACTION * p.clock.period_s())
     }
@@ -315,7 +315,7 @@ impl BeatSlide {
         self.analyse_with(from_s, to_s, analyse_window)
     }
 
-    fn analyse_with(
+    pub(super) fn analyse_with(
         &mut self,
         from_s: f64,
         to_s: f64,
@@ -338,7 +338,7 @@ impl BeatSlide {
     }
 
     /// The SNR this artery's fixes usually reach at the current beats per fix.
-    fn usual_snr(&self) -> f64 {
+    pub(super) fn usual_snr(&self) -> f64 {
         self.pulse
             .map_or(0.0, |p| p.snr_per_beat * (self.beats_per_fix as f64).sqrt())
     }
