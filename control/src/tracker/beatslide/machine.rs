@@ -1920,7 +1920,10 @@ mod tests {
         let mut t = going_back(0.08);
         let heard = heard_going_back();
         let point = t.judge_returning(&heard).expect("a clear fix on the array");
-        assert!(point.distance_to(&SurfacePoint::new(0.012, 0.008)) < 1e-3, "{point:?}");
+        assert!(
+            point.distance_to(&SurfacePoint::new(0.012, 0.008)) < 1e-3,
+            "{point:?}"
+        );
         t.refound_returning(&heard, point, heard.sensor, 10.0);
         let located = std::iter::from_fn(|| t.events.pop())
             .filter(|e| matches!(e, TrackerEvent::Located(_)))
@@ -1932,7 +1935,10 @@ mod tests {
         let f = t.filter.expect("a path model");
         let (s, _) = f.to_local(point);
         let there = f.predict(s);
-        assert!(there.point.distance_to(&point) < 1e-3, "{there:?} {point:?}");
+        assert!(
+            there.point.distance_to(&point) < 1e-3,
+            "{there:?} {point:?}"
+        );
         assert!(there.heading_rad > 0.3, "heading {}", there.heading_rad);
         // The slide goes on ahead of the fix, not back toward the last one.
         let State::Sliding { target, .. } = t.state else {
@@ -1943,18 +1949,7 @@ mod tests {
 
     #[test]
     fn going_back_a_weak_faint_or_edge_fix_is_refused_and_nothing_changes() {
-        let weak = |f: &mut BeatFix| f.kernel.amplitude = 9.0;
-        let at_edge = |f: &mut BeatFix| f.kernel.at_edge = true;
-        let beyond = |f: &mut BeatFix| f.kernel.element = 9.7;
-        let loose = |f: &mut BeatFix| f.kernel.offset_se_m = 0.005;
-        let cases: [(&str, f64, &dyn Fn(&mut BeatFix)); 5] = [
-            ("weak", 0.08, &weak),
-            ("at the edge", 0.08, &at_edge),
-            ("beyond the array", 0.08, &beyond),
-            ("loosely placed", 0.08, &loose),
-            ("faint", 1e3, &|_: &mut BeatFix| {}),
-        ];
-        for (what, usual_n, change) in cases {
+        let refused = |what: &str, usual_n: f64, change: fn(&mut BeatFix)| {
             let mut t = going_back(usual_n);
             let mut heard = heard_going_back();
             change(&mut heard);
@@ -1962,7 +1957,12 @@ mod tests {
             assert!(t.judge_returning(&heard).is_err(), "{what}");
             assert_eq!(t.filter, filter, "{what}: the path model is unchanged");
             assert_eq!(t.last_fix, Some(SurfacePoint::new(0.005, 0.0)), "{what}");
-        }
+        };
+        refused("weak", 0.08, |f| f.kernel.amplitude = 9.0);
+        refused("at the edge", 0.08, |f| f.kernel.at_edge = true);
+        refused("beyond the array", 0.08, |f| f.kernel.element = 9.7);
+        refused("loosely placed", 0.08, |f| f.kernel.offset_se_m = 0.005);
+        refused("faint", 1e3, |_| {});
     }
 
     #[test]

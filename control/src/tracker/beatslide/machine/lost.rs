@@ -325,7 +325,13 @@ impl BeatSlide {
 
     /// The artery heard on the way back: slide on from there, more carefully, as after a
     /// search that found it; the fix steers and is not reported (it was timed freely).
-    pub(super) fn refound_returning(&mut self, fix: &BeatFix, point: SurfacePoint, sensor: SurfacePoint, t: f64) {
+    pub(super) fn refound_returning(
+        &mut self,
+        fix: &BeatFix,
+        point: SurfacePoint,
+        sensor: SurfacePoint,
+        t: f64,
+    ) {
         self.returns += 1;
         if self.returns > self.params.max_returns {
             self.last_miss = Some(Miss::NoProgress);
