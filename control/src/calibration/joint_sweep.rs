@@ -80,7 +80,8 @@ struct LegStart {
 pub struct JointSweep {
     plan: SweepPlan,
     settings: JointSettings,
-    limits: JointLimits,
+    /// The configured software limits.
+    configured: JointLimits,
     leg: usize,
     started: Option<LegStart>,
     search: Option<StopSearch>,
@@ -88,7 +89,7 @@ pub struct JointSweep {
     /// Stopped: going straight home, keeping this stop's check widened.
     aborted: Option<Option<(usize, Side)>>,
     /// The limits the safety check uses this leg.
-    widened: JointLimits,
+    checked: JointLimits,
 }
 
 impl JointSweep {
@@ -96,13 +97,13 @@ impl JointSweep {
         let mut s = Self {
             plan,
             settings,
-            limits,
+            configured: limits,
             leg: 0,
             started: None,
             search: None,
             findings: Findings::default(),
             aborted: None,
-            widened: limits,
+            checked: limits,
         };
         s.widen();
         s
@@ -111,7 +112,7 @@ impl JointSweep {
     /// The joint limits the safety layer checks this cycle: the configured ones, widened
     /// past the stop being swept or backed off from.
     pub fn limits(&self) -> &JointLimits {
-        &self.widened
+        &self.checked
     }
 
     /// The stops found so far.
@@ -155,7 +156,7 @@ impl JointSweep {
             Some(w) => w,
             None => self.leg().widened(),
         };
-        let mut l = self.limits;
+        let mut l = self.configured;
         if let Some((j, side)) = widened {
             let by = self.settings.overtravel_rad + OVERSHOOT_SLACK_RAD;
             match side {
@@ -163,7 +164,7 @@ impl JointSweep {
                 Side::Upper => l.max_rad[j] += by,
             }
         }
-        self.widened = l;
+        self.checked = l;
     }
 
     fn next_leg(&mut self) -> bool {
@@ -209,7 +210,7 @@ impl JointSweep {
                         joint,
                         side,
                         state.position_rad[joint],
-                        &self.limits,
+                        &self.configured,
                         self.settings,
                     )?,
                 };
@@ -255,10 +256,10 @@ impl JointSweep {
         started: LegStart,
         to: &Joints,
     ) -> Result<SweepCycle, SweepError> {
-        let mut span = 0.0_f64;
-        for j in 0..JOINTS {
-            span = span.max((to[j] - started.from[j]).abs());
-        }
+        let span = to
+            .iter()
+            .zip(started.from)
+            .fold(0.0_f64, |m, (t, f)| m.max((t - f).abs()));
         let duration_s = span / self.settings.sweep_speed_rad_s;
         let elapsed = (state.t_s - started.t_s).max(0.0);
         let mut setpoint = JointSetpoint {
@@ -267,10 +268,11 @@ impl JointSweep {
         };
         if elapsed < duration_s {
             let f = elapsed / duration_s;
-            for j in 0..JOINTS {
-                let d = to[j] - started.from[j];
-                setpoint.position_rad[j] = started.from[j] + f * d;
-                setpoint.velocity_rad_s[j] = d / duration_s;
+            let sp = &mut setpoint;
+            for (j, (t, from)) in to.iter().zip(started.from).enumerate() {
+                let d = t - from;
+                sp.position_rad[j] = from + f * d;
+                sp.velocity_rad_s[j] = d / duration_s;
             }
         } else {
             let arrived = (0..JOINTS).all(|j| {
