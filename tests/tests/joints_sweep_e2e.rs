@@ -27,6 +27,12 @@ const UPPER_BEYOND_RAD: f64 = 0.05;
 const FOUND_WITHIN_RAD: f64 = 1.5e-3;
 
 fn scene_file(dir: &Path) -> String {
+    scene_with_lower_stop(dir, LOWER_BEYOND_RAD)
+}
+
+/// The bench with joint 0's lower stop `lower_beyond_rad` beyond its limit, the other stops
+/// 50 mrad outside theirs.
+fn scene_with_lower_stop(dir: &Path, lower_beyond_rad: f64) -> String {
     let text = std::fs::read_to_string(
         Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../config/scenes/pivot-off-arc-145-unweighted.ron"),
@@ -35,7 +41,7 @@ fn scene_file(dir: &Path) -> String {
     let end = text.rfind(')').expect("the scene's closing bracket");
     let joints = format!(
         "    joints: (encoder_zero_error_rad: ({ZERO_ERROR_RAD:?}, 0.0, 0.0), \
-         stop_beyond_limit_rad: (({LOWER_BEYOND_RAD:?}, {UPPER_BEYOND_RAD:?}), (0.05, 0.05), (0.05, 0.05)), \
+         stop_beyond_limit_rad: (({lower_beyond_rad:?}, {UPPER_BEYOND_RAD:?}), (0.05, 0.05), (0.05, 0.05)), \
          start_at_reset: true),\n"
     );
     let scene = format!("{}{joints}{}", &text[..end], &text[end..]);
@@ -220,5 +226,76 @@ fn stop_mid_sweep_brings_the_arm_back_powers_it_off_and_writes_nothing() {
         "the calibration file changed"
     );
     assert!(joints_on_file(dir.path()).stops.is_empty());
+    daemon.stop();
+}
+
+/// Every joint, on the stops the simulator puts 50 mrad outside each software limit: θ2 and
+/// θ3 are swept against gravity with the torque cap, θ3's upper stop with θ2 raised first
+/// (the coupling); all six found where they are, all pass, the arm ends where it began.
+#[test]
+fn a_sweep_of_every_joint_finds_all_six_stops_outside_their_limits() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let setup = Setup {
+        scene: scene_with_lower_stop(dir.path(), 0.05),
+        ..Setup::default()
+    };
+    let (daemon, mut c) = start(dir.path(), &setup);
+    call(
+        &mut c,
+        "subscribe",
+        json!({"streams": ["calibration", "faults"]}),
+    );
+    let homed = e2e::calibrate_and_wait(&mut c, home());
+    assert_eq!(homed["applied"], true, "{homed}");
+    let done = e2e::calibrate_and_wait(
+        &mut c,
+        json!({"procedure": "joints", "step": "sweep", "instrument_out": true}),
+    );
+    assert_eq!(done["phase"], "done", "{done}");
+    assert_eq!(done["passed"], true, "{done}");
+    assert_eq!(done["applied"], true, "{done}");
+    let stops = done["stops"].as_array().expect("stops");
+    assert_eq!(stops.len(), 6, "{done}");
+    for s in stops {
+        let margin = e2e::num(&s["margin_rad"]);
+        eprintln!(
+            "joint {} {} stop: {:.5} rad, {margin:+.5} rad beyond its limit (truly +0.05)",
+            s["joint"], s["side"], e2e::num(&s["at_rad"])
+        );
+        assert_eq!(s["stalled"], true, "{s}");
+        assert!((margin - 0.05).abs() < FOUND_WITHIN_RAD, "{s}");
+    }
+    assert!(
+        done["stops_inside_limits"].as_array().is_some_and(Vec::is_empty),
+        "{done}"
+    );
+    daemon.stop();
+}
+
+/// "Applied means written": with no room for the file the stops are announced not applied,
+/// the old file stays whole and `status` shows no stops.
+#[test]
+fn a_full_disk_leaves_the_file_and_the_stops_as_they_were() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let Some((daemon, mut c, small, path)) =
+        e2e::start_on_small_disk(dir.path(), &setup(dir.path()))
+    else {
+        return;
+    };
+    let homed = e2e::calibrate_and_wait(&mut c, home());
+    assert_eq!(homed["applied"], true, "{homed}");
+    let before = std::fs::read(&path).expect("written");
+    small.fill();
+    let done = e2e::calibrate_and_wait(&mut c, sweep0());
+    assert_eq!(done["phase"], "done", "{done}");
+    assert_eq!(done["applied"], false, "{done}");
+    e2e::assert_says(&done, "reason", "No space left");
+    assert_eq!(std::fs::read(&path).expect("still there"), before);
+    let status = call(&mut c, "status", json!({}));
+    assert_eq!(
+        status["calibration"]["joints"]["stops"],
+        json!([]),
+        "no stops in use: {status}"
+    );
     daemon.stop();
 }
