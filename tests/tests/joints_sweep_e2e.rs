@@ -177,6 +177,59 @@ fn the_sweep_finds_a_stop_inside_the_limit_says_so_writes_it_and_loads_it_again(
         json!(record.stops_measured_utc),
         "{status}"
     );
+    // The command line, for people: degrees, the stop inside its limit said plainly, and a
+    // failing exit code for a sweep whose stops do not pass.
+    let cli = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
+            .args(args)
+            .arg("--socket")
+            .arg(&daemon.socket)
+            .arg("--config")
+            .arg(&daemon.config)
+            .output()
+            .expect("run pulsetrack");
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).to_string(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    let (code, out, err) = cli(&["status"]);
+    assert_eq!(code, Some(0), "{out}{err}");
+    assert!(
+        out.contains("joint stops of") && out.contains("WARNING: joint 0 lower stop"),
+        "{out}"
+    );
+    let (code, out, err) = cli(&[
+        "calibrate",
+        "joints",
+        "sweep",
+        "--instrument-out",
+        "--joint",
+        "0",
+    ]);
+    assert_eq!(code, Some(1), "{out}{err}");
+    assert!(
+        err.contains("joint 0 lower stop"),
+        "progress in degrees: {err}"
+    );
+    assert!(
+        out.contains("joint stops: joint side") && out.contains("WARNING: joint 0 lower stop"),
+        "{out}"
+    );
+    let (code, out, err) = cli(&[
+        "calibrate",
+        "joints",
+        "sweep",
+        "--instrument-out",
+        "--joint",
+        "3",
+    ]);
+    assert_eq!(
+        code,
+        Some(2),
+        "a joint the arm does not have is a usage error: {out}{err}"
+    );
     daemon.stop();
 }
 
@@ -260,13 +313,17 @@ fn a_sweep_of_every_joint_finds_all_six_stops_outside_their_limits() {
         let margin = e2e::num(&s["margin_rad"]);
         eprintln!(
             "joint {} {} stop: {:.5} rad, {margin:+.5} rad beyond its limit (truly +0.05)",
-            s["joint"], s["side"], e2e::num(&s["at_rad"])
+            s["joint"],
+            s["side"],
+            e2e::num(&s["at_rad"])
         );
         assert_eq!(s["stalled"], true, "{s}");
         assert!((margin - 0.05).abs() < FOUND_WITHIN_RAD, "{s}");
     }
     assert!(
-        done["stops_inside_limits"].as_array().is_some_and(Vec::is_empty),
+        done["stops_inside_limits"]
+            .as_array()
+            .is_some_and(Vec::is_empty),
         "{done}"
     );
     daemon.stop();
