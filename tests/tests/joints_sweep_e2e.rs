@@ -300,9 +300,14 @@ fn a_sweep_of_every_joint_finds_all_six_stops_outside_their_limits() {
     );
     let homed = e2e::calibrate_and_wait(&mut c, home());
     assert_eq!(homed["applied"], true, "{homed}");
+    let began = e2e::num(&call(&mut c, "status", json!({}))["t_s"]);
     let done = e2e::calibrate_and_wait(
         &mut c,
         json!({"procedure": "joints", "step": "sweep", "instrument_out": true}),
+    );
+    eprintln!(
+        "the sweep of all three joints took {:.1} s (simulated)",
+        e2e::num(&done["t_s"]) - began
     );
     assert_eq!(done["phase"], "done", "{done}");
     assert_eq!(done["passed"], true, "{done}");
