@@ -1198,7 +1198,14 @@ impl Supervisor {
         }
         self.end_trial(TrialEnd::Shutdown);
         self.search_abort();
-        let hold_seq = if self.state.powered() {
+        let sweeping = self.sweeping.is_some();
+        if sweeping {
+            // The joint sweep holds no Cartesian pose to rest at: power off where it is.
+            self.sweep_failed("the daemon is stopping: the arm was powered off where it was");
+            let seq = self.seq();
+            self.send(ControlCommand::Disable { seq }, Purpose::Disable, None);
+        }
+        let hold_seq = if self.state.powered() && !sweeping {
             let seq = self.seq();
             self.motion_seq = seq;
             self.send(ControlCommand::Hold { seq }, Purpose::ShutdownHold, None);
