@@ -63,11 +63,22 @@ pub struct JointsRecord {
     /// What the daemon adds to every encoder angle once this record is in use
     /// (`reset_pose_rad − read_rad`), rad.
     pub zero_offset_rad: [f64; 3],
-    /// Each stop the sweep looked for, in the order swept.
+    /// Each stop the sweep looked for, in the order swept (empty until a sweep ran; a new
+    /// homing clears them, as they were read through the old zero).
     pub stops: Vec<StopRecord>,
+    /// The homing's checks.
     pub checks: Vec<CheckRecord>,
-    /// Every check passed; the daemon applies only a record that passed.
+    /// Every homing check passed; the daemon applies only a record that passed.
     pub passed: bool,
+    /// When the stop sweep ended, UTC (absent: no sweep yet; files written before the sweep
+    /// have none).
+    #[serde(default)]
+    pub stops_measured_utc: Option<String>,
+    /// Each stop's margin against `calibration.joints.min_stop_margin_rad`. A stop that fails
+    /// it is reported, not hidden, and does not stop the zero being used: the software limits
+    /// stay the config's (docs/rig-bring-up.md section 1).
+    #[serde(default)]
+    pub stop_checks: Vec<CheckRecord>,
 }
 
 /// Where the sweep found one stop, against the software limit on that side.

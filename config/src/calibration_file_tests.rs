@@ -99,7 +99,31 @@ fn joints() -> JointsRecord {
         }],
         checks: vec![],
         passed: true,
+        stops_measured_utc: Some("2026-11-28T13-05-00Z".into()),
+        stop_checks: vec![],
     }
+}
+
+#[test]
+fn a_joints_record_from_before_the_stop_sweep_still_loads() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("calibration.ron");
+    let mut record = joints();
+    record.stops.clear();
+    record.stops_measured_utc = None;
+    let file = CalibrationFile {
+        joints: Some(record.clone()),
+        ..CalibrationFile::default()
+    };
+    // As the homing wrote it before the sweep: no `stops_measured_utc`, no `stop_checks`.
+    let text = ron::ser::to_string_pretty(&file, ron::ser::PrettyConfig::default())
+        .expect("ron")
+        .replace("        stops_measured_utc: None,\n", "")
+        .replace("        stop_checks: [],\n", "");
+    assert!(!text.contains("stop_checks"), "{text}");
+    std::fs::write(&path, text).expect("write");
+    let f = load(&path).expect("loads").expect("there").value;
+    assert_eq!(f.joints, Some(record));
 }
 
 #[test]

@@ -9,6 +9,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use nalgebra::{Point3, Vector3};
+use pulsetrack_control::calibration::{JointSettings, JointSweep, StopTargets, SweepPlan};
 use pulsetrack_control::frames::SurfacePoint;
 use pulsetrack_control::kinematics::{
     ArmModel, DEFAULT_SENSOR_OFFSET_M, DEFAULT_SURFACE_DEPTH_M, JointLimits, PhantomGeometry,
@@ -17,7 +18,7 @@ use pulsetrack_control::kinematics::{
 use pulsetrack_control::motion::{MotionParams, MotionPlanner};
 use pulsetrack_control::pd::gravity::{ArmGravity, Instrument};
 use pulsetrack_control::pd::{GravityModel, PdController, PdParams, PhantomGravity, PhantomMasses};
-use pulsetrack_control::types::{JointSetpoint, JointState};
+use pulsetrack_control::types::{JointSetpoint, JointState, JointTorques};
 
 const BATCHES: usize = 31;
 const CALLS: usize = 20_000;
@@ -106,6 +107,42 @@ fn main() {
         )
         .expect("valid move");
 
+    // The joint stop sweep: joint 0 searching toward its lower stop (past the plan's first,
+    // empty move), and a plan whose first move ramps θ3 (θ2's lower sweep from θ3 = 0.5 rad).
+    let sweep_settings = JointSettings::default();
+    let limits = JointLimits::default();
+    let at = |q: [f64; 3], t: f64| JointState {
+        t_s: t,
+        position_rad: q,
+        velocity_rad_s: [0.0; 3],
+    };
+    let mut searching = JointSweep::new(
+        SweepPlan::new(
+            &[0.0; 3],
+            StopTargets::joints(&[0]).expect("joint 0"),
+            &limits,
+            &sweep_settings,
+        )
+        .expect("plan"),
+        limits,
+        sweep_settings,
+    );
+    searching
+        .step(&at([0.0; 3], 0.0), &JointTorques::ZERO)
+        .expect("the empty first move arrives");
+    let moving_start = [0.0, 0.0, 0.5];
+    let moving = JointSweep::new(
+        SweepPlan::new(
+            &moving_start,
+            StopTargets::joints(&[1]).expect("joint 1"),
+            &limits,
+            &sweep_settings,
+        )
+        .expect("plan"),
+        limits,
+        sweep_settings,
+    );
+    let mut moving_now = moving;
     let pd_ns = median_ns(|i| {
         let q = joints[i % 64];
         let sp = JointSetpoint::at_rest(q);
@@ -232,6 +269,42 @@ fn main() {
                     velocity_rad_s: sp.velocity_rad_s,
                 };
                 black_box(pd.step(&sp, &st, &g, 1e-3).ok());
+            }),
+        ),
+        (
+            "JointSweep::step, searching + cap + limits",
+            median_ns(|i| {
+                let t = 1e-3 + (i % 1000) as f64 * 1e-4;
+                let c = searching.step(&at([-0.01, 0.0, 0.0], t), &JointTorques::ZERO);
+                let capped = searching.cap(&JointTorques {
+                    torque_nm: [0.2, -0.2, 0.1],
+                });
+                black_box((c.ok(), capped, searching.limits().min_rad[0]));
+            }),
+        ),
+        (
+            "JointSweep::step, moving + cap + limits",
+            median_ns(|i| {
+                if i == 0 {
+                    moving_now = moving;
+                }
+                let t = (i % 1000) as f64 * 1e-4;
+                let c = moving_now.step(&at(moving_start, t), &JointTorques::ZERO);
+                let capped = moving_now.cap(&JointTorques {
+                    torque_nm: [0.2, -0.2, 0.1],
+                });
+                black_box((c.ok(), capped, moving_now.limits().min_rad[0]));
+            }),
+        ),
+        (
+            "one sweep cycle: JointSweep::step + gravity + PD + cap",
+            median_ns(|i| {
+                let t = 1e-3 + (i % 1000) as f64 * 1e-4;
+                let st = at([-0.01, 0.0, 0.0], t);
+                let c = searching.step(&st, &JointTorques::ZERO).expect("searching");
+                let g = gravity.torque_nm(&st.position_rad);
+                let tau = pd.step(&c.setpoint, &st, &g, 1e-3).expect("finite");
+                black_box(searching.cap(&tau));
             }),
         ),
     ];

@@ -235,6 +235,7 @@ fn calibration_at_start(
         sensor: c.sensor,
         time_scale,
         joints: c.calibration.joints,
+        joint_limits: c.robot.joint_limits,
     };
     let file = config::calibration_file::load(&settings.file)
         .map_err(|e| StartError::Control(format!("calibration file: {e}")))?
@@ -282,6 +283,9 @@ fn calibration_at_start(
                 settings.file.display(),
                 o
             );
+            for line in crate::supervisor::joints_sweep::inside_limits(&r.stops) {
+                tracing::warn!("{}: {line}", settings.file.display());
+            }
             Ok::<_, StartError>(r)
         })
         .transpose()?;

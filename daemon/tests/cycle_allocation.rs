@@ -82,3 +82,37 @@ fn powered_cycles_moving_and_streaming_allocate_nothing() {
         "allocations in 3000 cycles"
     );
 }
+
+/// The joint stop sweep's mode (`SweepStops`): its plan is built when the command arrives,
+/// and every cycle after (ramps, the search, the cap, the widened limit check) allocates
+/// nothing.
+#[test]
+fn joint_sweep_cycles_allocate_nothing() {
+    let mut r = rig();
+    r.run(50);
+    assert!(matches!(
+        r.send(|seq| ControlCommand::SweepStops {
+            seq,
+            targets: control::calibration::StopTargets::joints(&[0]).expect("joint 0"),
+            settings: control::calibration::JointSettings::default(),
+        }),
+        ControlEvent::Done { .. }
+    ));
+    r.run(10);
+    ALLOCATIONS.store(0, Ordering::SeqCst);
+    COUNTING.with(|c| c.set(true));
+    for _ in 0..3000 {
+        r.control.cycle();
+        COUNTING.with(|c| c.set(false));
+        while r.samples.try_recv().is_ok() {}
+        while r.events.try_recv().is_ok() {}
+        COUNTING.with(|c| c.set(true));
+    }
+    COUNTING.with(|c| c.set(false));
+    assert_eq!(r.status().mode, LoopMode::Enabled, "still sweeping");
+    assert_eq!(
+        ALLOCATIONS.load(Ordering::SeqCst),
+        0,
+        "allocations in 3000 sweep cycles"
+    );
+}

@@ -116,8 +116,8 @@ fn the_array_is_calibrated_through_the_daemon_and_the_trackers_read_it_so() {
         ),
         (
             json!({"procedure": "joints", "step": "sweep", "instrument_out": true}),
-            "bad_argument",
-            "not built yet",
+            "refused",
+            "calibrate joints home",
         ),
         (json!({"procedure": 7}), "bad_argument", "must be a string"),
         (json!({}), "bad_argument", "needs `procedure`"),
@@ -342,6 +342,9 @@ fn the_command_line_prints_the_result_and_exits_by_it() {
     assert!(!dir.path().join("calibration.ron").exists());
     let (code, out, err) = cli(&["joints", "sweep", "--instrument-out"]);
     assert_eq!(code, Some(1), "{out}{err}");
-    assert!(err.contains("not built yet"), "{err}");
+    assert!(
+        err.contains("calibrate joints home"),
+        "the sweep needs the homing: {err}"
+    );
     daemon.stop();
 }

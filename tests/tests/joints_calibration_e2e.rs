@@ -3,7 +3,7 @@
 //! resting in its reset pose with the instrument out of the incision; `calibrate joints home`
 //! over the socket recovers the offset, writes it, hands it to the loop (the angles then read
 //! the reset pose), shows it in `status` and loads it at the next start. Refused: without the
-//! `instrument_out` acknowledgement, powered, and the stop sweep (not built yet). A record
+//! `instrument_out` acknowledgement, and the stop sweep before a homing. A record
 //! that did not pass stops the start naming the file; a full disk leaves the old zero in use.
 
 mod e2e;
@@ -81,8 +81,8 @@ fn the_encoder_zero_is_measured_written_used_and_loaded_again() {
         ),
         (
             json!({"procedure": "joints", "step": "sweep", "instrument_out": true}),
-            "bad_argument",
-            "not built yet",
+            "refused",
+            "calibrate joints home",
         ),
         (
             json!({"procedure": "joints", "step": "spin", "instrument_out": true}),

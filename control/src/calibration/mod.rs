@@ -7,10 +7,12 @@
 //! the calibration file and the daemon's verbs are not here (docs/calibration.md, "Rig
 //! calibration").
 
+pub mod joint_sweep;
 pub mod joints;
 pub mod level_pivot;
 pub mod pivot;
 pub mod stop_search;
+pub mod sweep_plan;
 pub mod tactile;
 mod tactile_applied;
 pub mod tissue_frame;
@@ -18,14 +20,18 @@ pub mod tolerance;
 pub mod touch;
 
 #[cfg(test)]
+mod joint_sweep_tests;
+#[cfg(test)]
 mod joints_tests;
 #[cfg(test)]
 mod kinematics_tests;
 
+pub use joint_sweep::{Findings, JointSweep, SweepCycle, SweepError};
 pub use joints::{JointSettings, JointsError, Side, StopFound, zero_checks, zero_offsets};
 pub use level_pivot::{LevelPivotError, LevelPivotFit, check_layout, fit_pivot_level};
 pub use pivot::{PivotFit, PivotFitError, RodLine, fit_pivot};
 pub use stop_search::{SearchStep, StopSearch};
+pub use sweep_plan::{Leg, PlanError, StopTargets, SweepPlan};
 pub use tactile::{
     ElementCalibration, ElementStatus, Recording, TactileCalibration, TactileCalibrationError,
     TactileSettings, Tare, calibrate_gains,

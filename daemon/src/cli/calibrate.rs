@@ -18,7 +18,7 @@ pub struct CalibrateArgs {
     pub procedure: Procedure,
 }
 
-/// The procedures of issue 15; those not built yet are refused by the daemon, saying so.
+/// The procedures of issue 15.
 #[derive(Debug, clap::Subcommand)]
 pub enum Procedure {
     /// The tactile array: tare with nothing on it, then a known uniform load.
@@ -33,8 +33,8 @@ pub enum Procedure {
     /// The tissue frame: touch the surface at three or more points (and two along the
     /// artery) and fit where the tissue lies; the arm moves on its own.
     Tissue(TissueArgs),
-    /// The joints: the encoder zero from the reset pose (`home`; the stop sweep is not built
-    /// yet). The instrument must be out of the incision.
+    /// The joints: the encoder zero from the reset pose (`home`), then each joint's stops
+    /// (`sweep`). The instrument must be out of the incision.
     Joints {
         #[command(subcommand)]
         step: JointsStep,
@@ -46,9 +46,19 @@ pub enum JointsStep {
     /// Read the encoders with the unpowered arm resting in its reset pose and measure each
     /// joint's zero offset; if it passes, write it to the calibration file and use it.
     Home(JointsArgs),
-    /// The slow, torque-limited sweep to each joint's stops (not built yet: the daemon
-    /// refuses it, saying so).
-    Sweep(JointsArgs),
+    /// After `home`: power the arm (resting unpowered in its reset pose) in joint space and
+    /// sweep each joint slowly, torque-capped, to both its stops; write where they are
+    /// against the software limits, then bring the arm back and power it off.
+    Sweep(SweepArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct SweepArgs {
+    #[command(flatten)]
+    pub joints: JointsArgs,
+    /// A joint whose stops to find (0, 1 or 2; repeat for more); all three if absent.
+    #[arg(long = "joint", value_parser = clap::value_parser!(u8).range(0..3))]
+    pub joint: Vec<u8>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -162,16 +172,20 @@ pub fn request(p: &Procedure) -> (&Conn, Value) {
                 "course_m": t.course.map(|c| [[c[0], c[1]], [c[2], c[3]]]),
                 "course_lateral_m": t.course_lateral_mm * 1e-3}),
         ),
-        Procedure::Joints { step } => {
-            let (name, a) = match step {
-                JointsStep::Home(a) => ("home", a),
-                JointsStep::Sweep(a) => ("sweep", a),
-            };
-            (
+        Procedure::Joints { step } => match step {
+            JointsStep::Home(a) => (
                 &a.conn,
-                json!({"procedure": "joints", "step": name, "instrument_out": a.instrument_out}),
-            )
-        }
+                json!({"procedure": "joints", "step": "home", "instrument_out": a.instrument_out}),
+            ),
+            JointsStep::Sweep(s) => {
+                let joints = (!s.joint.is_empty()).then(|| s.joint.clone());
+                (
+                    &s.joints.conn,
+                    json!({"procedure": "joints", "step": "sweep",
+                            "instrument_out": s.joints.instrument_out, "joints": joints}),
+                )
+            }
+        },
     }
 }
 
@@ -214,6 +228,12 @@ fn run_on(c: &mut Client, req: &Value, raw: bool) -> Result<ExitCode, String> {
     if !raw {
         if procedure == "tissue" || procedure == "pivot" {
             eprintln!("touching {} points ...", reply["points"]);
+        } else if procedure == "joints" && step == "sweep" {
+            eprintln!(
+                "sweeping {} stops (about {:.0} s at the sweep speed) ...",
+                reply["stops"],
+                num(&reply["duration_s"])
+            );
         } else if procedure == "joints" {
             eprintln!("reading the encoders in the reset pose ...");
         } else {
@@ -243,6 +263,23 @@ fn run_on(c: &mut Client, req: &Value, raw: bool) -> Result<ExitCode, String> {
         }
         match e["phase"].as_str() {
             Some("started") | None => continue,
+            Some("stop_found") => {
+                if !raw {
+                    eprintln!(
+                        "  joint {} {} stop: {:.3} deg ({:+.3} deg beyond its software limit){}",
+                        e["joint"],
+                        e["side"].as_str().unwrap_or("?"),
+                        num(&e["at_rad"]).to_degrees(),
+                        num(&e["margin_rad"]).to_degrees(),
+                        if e["stalled"] == Value::Bool(false) {
+                            ", not met: it lies further out"
+                        } else {
+                            ""
+                        }
+                    );
+                }
+                continue;
+            }
             Some("touched") => {
                 if !raw {
                     let at = |i: usize| num(&e["at_m"][i]) * 1e3;
@@ -273,7 +310,11 @@ fn run_on(c: &mut Client, req: &Value, raw: bool) -> Result<ExitCode, String> {
                 } else {
                     print_result(&e);
                 }
-                let ok = step == "tare" || e["applied"] == Value::Bool(true);
+                // A sweep whose stops are written but fail their margin (one inside its
+                // software limit) is not a success either.
+                let ok = step == "tare"
+                    || (e["applied"] == Value::Bool(true)
+                        && (step != "sweep" || e["passed"] == Value::Bool(true)));
                 return Ok(if ok {
                     ExitCode::SUCCESS
                 } else {
@@ -313,8 +354,34 @@ fn print_tissue(e: &Value) {
     );
 }
 
+/// The sweep's result: degrees for people, and each stop inside its limit said plainly.
+fn print_stops(e: &Value) {
+    outln!("joint stops: joint side: at deg, software limit deg, beyond it deg");
+    for s in e["stops"].as_array().into_iter().flatten() {
+        outln!(
+            "  {} {:5}: {:8.3} {:8.3} {:+8.3}{}",
+            s["joint"],
+            s["side"].as_str().unwrap_or("?"),
+            num(&s["at_rad"]).to_degrees(),
+            num(&s["software_limit_rad"]).to_degrees(),
+            num(&s["margin_rad"]).to_degrees(),
+            if s["stalled"] == Value::Bool(false) {
+                "  (not met within the overtravel)"
+            } else {
+                ""
+            }
+        );
+    }
+    for line in e["stops_inside_limits"].as_array().into_iter().flatten() {
+        outln!("WARNING: {}", line.as_str().unwrap_or("?"));
+    }
+}
+
 /// The homing's result: degrees for people.
 fn print_joints(e: &Value) {
+    if e["step"] == "sweep" {
+        return print_stops(e);
+    }
     outln!("encoder zero: joint: reset pose deg, read deg, offset deg");
     for j in 0..3 {
         outln!(

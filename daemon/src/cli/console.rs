@@ -383,6 +383,49 @@ fn print_status(r: &Value) {
             pivot["rms_residual_m"].as_f64().unwrap_or(f64::NAN) * 1e3
         );
     }
+    let joints = &r["calibration"]["joints"];
+    if joints.is_object() {
+        let deg = |i: usize| {
+            joints["zero_offset_rad"][i]
+                .as_f64()
+                .unwrap_or(f64::NAN)
+                .to_degrees()
+        };
+        outln!(
+            "calibrated encoder zero of {}: offsets ({:+.3}, {:+.3}, {:+.3}) deg",
+            joints["measured_utc"].as_str().unwrap_or("?"),
+            deg(0),
+            deg(1),
+            deg(2)
+        );
+        let stops = joints["stops"].as_array().map_or(&[][..], Vec::as_slice);
+        if !stops.is_empty() {
+            let each: Vec<String> = stops
+                .iter()
+                .map(|s| {
+                    format!(
+                        "{} {} {:.2} deg ({:+.2})",
+                        s["joint"],
+                        s["side"].as_str().unwrap_or("?"),
+                        s["at_rad"].as_f64().unwrap_or(f64::NAN).to_degrees(),
+                        s["margin_rad"].as_f64().unwrap_or(f64::NAN).to_degrees()
+                    )
+                })
+                .collect();
+            outln!(
+                "joint stops of {} (deg beyond the software limit): {}",
+                joints["stops_measured_utc"].as_str().unwrap_or("?"),
+                each.join(", ")
+            );
+        }
+        for line in joints["stops_inside_limits"]
+            .as_array()
+            .into_iter()
+            .flatten()
+        {
+            outln!("WARNING: {}", line.as_str().unwrap_or("?"));
+        }
+    }
     let t = &r["tactile"];
     outln!(
         "tactile    {} frames, newest {} s old, contact {} N",

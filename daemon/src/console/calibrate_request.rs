@@ -5,9 +5,8 @@ use super::{Args, CalibrateStep, DebugAction, ErrorCode, ParseLimits, RequestErr
 use control::frames::SurfacePoint;
 use serde_json::Value;
 
-/// The procedures the issue names; only those in `BUILT` run.
+/// The procedures the issue names (all built).
 const PROCEDURES: [&str; 4] = ["tactile", "pivot", "tissue", "joints"];
-const BUILT: [&str; 4] = ["tactile", "pivot", "tissue", "joints"];
 
 /// Most surface points one tissue or pivot calibration touches (each takes some 15 s).
 pub const MAX_TOUCHES: usize = 16;
@@ -175,28 +174,22 @@ fn pivot(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateStep, Request
     Ok(CalibrateStep::PivotTouch { points })
 }
 
-/// `{"verb": "calibrate", "procedure": "joints", "step": "home", "instrument_out": true}`:
-/// the homing, which needs the instrument out of the incision, acknowledged. The stop sweep
-/// (`"step": "sweep"`) is not built yet and is refused as such.
+/// `{"verb": "calibrate", "procedure": "joints", "step": "home" | "sweep", "instrument_out":
+/// true}`: the homing, or the stop sweep (`"joints": [0, 1, 2]`, the joints whose stops to
+/// find, all if absent); both need the instrument out of the incision, acknowledged.
 fn joints(args: &mut Args) -> Result<CalibrateStep, RequestError> {
     let id = args.id;
-    match string(args, "step")?.as_deref() {
-        None | Some("home") => {}
-        Some("sweep") => {
-            return Err(err(
-                Some(id),
-                ErrorCode::BadArgument,
-                "the joints' stop sweep is not built yet (docs/rig-bring-up.md section 1); built: home",
-            ));
-        }
+    let sweep = match string(args, "step")?.as_deref() {
+        None | Some("home") => false,
+        Some("sweep") => true,
         Some(other) => {
             return Err(err(
                 Some(id),
                 ErrorCode::BadArgument,
-                format!("unknown joints step {other:?}; known: home (sweep: not built yet)"),
+                format!("unknown joints step {other:?}; known: home, sweep"),
             ));
         }
-    }
+    };
     let instrument_out = match args.obj.remove("instrument_out") {
         Some(Value::Bool(b)) => b,
         None | Some(Value::Null) => false,
@@ -215,7 +208,48 @@ fn joints(args: &mut Args) -> Result<CalibrateStep, RequestError> {
             "`calibrate joints` needs `instrument_out`: true: take the instrument out of the incision and rest the unpowered arm in its reset pose first (docs/rig-bring-up.md section 1)",
         ));
     }
-    Ok(CalibrateStep::JointsHome { instrument_out })
+    if !sweep {
+        if args.obj.contains_key("joints") {
+            return Err(err(
+                Some(id),
+                ErrorCode::BadArgument,
+                "`joints` belongs to the sweep; the homing reads every joint",
+            ));
+        }
+        return Ok(CalibrateStep::JointsHome { instrument_out });
+    }
+    let joints = match args.obj.remove("joints") {
+        None | Some(Value::Null) => vec![0, 1, 2],
+        Some(Value::Array(a)) if !a.is_empty() && a.len() <= 3 => {
+            let mut out = Vec::with_capacity(a.len());
+            for v in a {
+                match v.as_u64() {
+                    Some(j) if j < 3 && !out.contains(&(j as usize)) => out.push(j as usize),
+                    _ => {
+                        return Err(err(
+                            Some(id),
+                            ErrorCode::BadArgument,
+                            format!("`joints` holds joint numbers 0, 1 or 2, each once; got {v}"),
+                        ));
+                    }
+                }
+            }
+            out
+        }
+        Some(other) => {
+            return Err(err(
+                Some(id),
+                ErrorCode::BadArgument,
+                format!(
+                    "`joints` must be a list of one to three joint numbers (0, 1, 2), got {other}"
+                ),
+            ));
+        }
+    };
+    Ok(CalibrateStep::JointsSweep {
+        instrument_out,
+        joints,
+    })
 }
 
 /// `{"verb": "calibrate", "procedure": "tactile", "step": "tare" | "load", ...}`, or the
@@ -232,18 +266,11 @@ pub(super) fn parse(args: &mut Args, limits: &ParseLimits) -> Result<CalibrateSt
             ),
         )
     })?;
-    if !BUILT.contains(&procedure.as_str()) {
-        let why = if PROCEDURES.contains(&procedure.as_str()) {
-            format!(
-                "the {procedure} procedure is not built yet (docs/rig-bring-up.md); built: {}",
-                BUILT.join(", ")
-            )
-        } else {
-            format!(
-                "unknown procedure {procedure:?}; known: {}",
-                PROCEDURES.join(", ")
-            )
-        };
+    if !PROCEDURES.contains(&procedure.as_str()) {
+        let why = format!(
+            "unknown procedure {procedure:?}; known: {}",
+            PROCEDURES.join(", ")
+        );
         return Err(err(Some(id), ErrorCode::BadArgument, why));
     }
     if procedure == "tissue" {

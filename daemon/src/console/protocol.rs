@@ -121,6 +121,13 @@ pub enum CalibrateStep {
     /// The homing: the unpowered arm rests in its reset pose, the instrument out of the
     /// incision (`instrument_out` acknowledges it); each joint's encoder zero offset.
     JointsHome { instrument_out: bool },
+    /// The stop sweep: the arm, resting unpowered in its reset pose with the instrument out
+    /// (`instrument_out` acknowledges it), powered in joint space and each named joint swept
+    /// slowly to both its stops with a capped torque.
+    JointsSweep {
+        instrument_out: bool,
+        joints: Vec<usize>,
+    },
 }
 
 impl CalibrateStep {
@@ -129,7 +136,7 @@ impl CalibrateStep {
             CalibrateStep::TactileTare { .. } | CalibrateStep::TactileLoad { .. } => "tactile",
             CalibrateStep::TissueTouch { .. } => "tissue",
             CalibrateStep::PivotTouch { .. } => "pivot",
-            CalibrateStep::JointsHome { .. } => "joints",
+            CalibrateStep::JointsHome { .. } | CalibrateStep::JointsSweep { .. } => "joints",
         }
     }
 
@@ -139,6 +146,7 @@ impl CalibrateStep {
             CalibrateStep::TactileLoad { .. } => "load",
             CalibrateStep::TissueTouch { .. } | CalibrateStep::PivotTouch { .. } => "touch",
             CalibrateStep::JointsHome { .. } => "home",
+            CalibrateStep::JointsSweep { .. } => "sweep",
         }
     }
 
@@ -148,7 +156,8 @@ impl CalibrateStep {
             | CalibrateStep::TactileLoad { duration_s, .. } => *duration_s,
             CalibrateStep::TissueTouch { .. }
             | CalibrateStep::PivotTouch { .. }
-            | CalibrateStep::JointsHome { .. } => None,
+            | CalibrateStep::JointsHome { .. }
+            | CalibrateStep::JointsSweep { .. } => None,
         }
     }
 
@@ -261,6 +270,14 @@ impl Verb {
                 }
                 if let CalibrateStep::JointsHome { instrument_out } = c {
                     put("instrument_out", (*instrument_out).into());
+                }
+                if let CalibrateStep::JointsSweep {
+                    instrument_out,
+                    joints,
+                } = c
+                {
+                    put("instrument_out", (*instrument_out).into());
+                    put("joints", joints.clone().into());
                 }
                 if let CalibrateStep::PivotTouch { points } = c {
                     let xz = |p: &control::frames::SurfacePoint| serde_json::json!([p.x_m, p.z_m]);

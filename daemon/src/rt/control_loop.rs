@@ -5,6 +5,8 @@
 //! fault the loop, which then stops commanding torque; a port error that repeats every cycle
 //! (a latched or unplugged arm) is logged once per burst, with its count when it ends.
 
+mod joint_sweep_mode;
+
 use std::sync::Arc;
 
 use crossbeam_channel::{Receiver, Sender, TrySendError};
@@ -118,6 +120,9 @@ pub struct ControlLoop {
     zero_offset_rad: Joints,
     /// A change of it this cycle, for the joint state read before it.
     zero_shift: Option<Joints>,
+    /// The joint stop sweep under way (`rt/joint_sweep_mode.rs`): joint space, the instrument
+    /// out, no rod pose needed.
+    sweep: Option<control::calibration::JointSweep>,
 }
 
 impl std::fmt::Debug for ControlLoop {
@@ -154,6 +159,7 @@ impl ControlLoop {
             pending_reset: None,
             zero_offset_rad: [0.0; 3],
             zero_shift: None,
+            sweep: None,
             logs: PortLogs::new(),
         }
     }
@@ -200,7 +206,14 @@ impl ControlLoop {
         }
 
         let torques = if self.status.mode == LoopMode::Enabled {
-            match joints.as_ref().map(|s| self.enabled_step(now, s)) {
+            let step = |l: &mut Self, s: &JointState| {
+                if l.sweep.is_some() {
+                    l.sweep_step(now, s)
+                } else {
+                    l.enabled_step(now, s)
+                }
+            };
+            match joints.as_ref().map(|s| step(self, s)) {
                 Some(Ok(t)) => t,
                 Some(Err(f)) => {
                     self.latch(f);
@@ -369,12 +382,20 @@ impl ControlLoop {
             // Handled above: its answer may wait for the cause to clear.
             ControlCommand::Reset { .. } => Ok(()),
             _ if self.status.mode == LoopMode::Faulted => Err(Refusal::Faulted),
-            ControlCommand::Enable { .. } => self.enable(now, joints),
+            ControlCommand::EndSweep { .. } => self.end_sweep(),
             ControlCommand::Disable { .. } => {
+                self.sweep = None;
                 self.power_off();
                 self.status.mode = LoopMode::Disabled;
                 Ok(())
             }
+            _ if self.sweep.is_some() => Err(Refusal::Cause(
+                "a joint stop sweep is under way: stop it first".into(),
+            )),
+            ControlCommand::SweepStops {
+                targets, settings, ..
+            } => self.start_sweep(now, joints, targets, settings),
+            ControlCommand::Enable { .. } => self.enable(now, joints),
             ControlCommand::Hold { seq } => {
                 if self.status.mode != LoopMode::Enabled {
                     Err(Refusal::NotEnabled)
@@ -672,6 +693,7 @@ impl ControlLoop {
         if self.fault.is_some() {
             return;
         }
+        self.sweep = None;
         self.power_off();
         self.status.mode = LoopMode::Faulted;
         self.fault = Some(fault);

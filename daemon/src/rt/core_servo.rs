@@ -25,6 +25,8 @@ pub struct CoreServo {
     /// The config's rod, the arm's own bodies and g: what reads the sensor's place from the
     /// arm's load.
     rod: Option<(RodMechanics, PhantomGravity, f64)>,
+    /// The arm's own bodies: all the joint-space mode holds up (the instrument out).
+    bodies: PhantomGravity,
 }
 
 pub fn build(c: &Config) -> Result<Box<dyn Servo>, String> {
@@ -72,6 +74,7 @@ impl CoreServo {
                 &c.robot.pivot,
                 c.instrument.as_ref(),
             ),
+            bodies: PhantomGravity::new(&c.robot.link_masses),
             rod: c.rod.map(|r| {
                 (
                     r,
@@ -259,6 +262,24 @@ impl Servo for CoreServo {
         // The instrument's excess weight reaches the joints through the pivot too.
         self.gravity = self.gravity.with_pivot(&pivot);
         Ok(())
+    }
+
+    fn joint_step(
+        &mut self,
+        now_s: f64,
+        state: &JointState,
+        setpoint: &control::types::JointSetpoint,
+        dt_s: f64,
+    ) -> Result<control::types::JointTorques, Fault> {
+        let g = self.bodies.torque_nm(&state.position_rad);
+        self.pd
+            .step(setpoint, state, &g, dt_s)
+            .map_err(|e| pd_fault(&e, now_s))
+    }
+
+    fn joint_reset(&mut self) {
+        self.planner.clear();
+        self.pd.reset();
     }
 
     fn hold(&mut self, now_s: f64) {

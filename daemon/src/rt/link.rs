@@ -48,6 +48,16 @@ pub enum ControlCommand {
     /// Add `offset_rad` to every encoder angle from now on (a joints calibration's zero);
     /// powered, the arm holds where it is.
     SetJointZero { seq: u64, offset_rad: Joints },
+    /// Power the arm in joint space, without the rod through the pivot (the instrument out
+    /// of the incision), and sweep `targets` ([`control::calibration::JointSweep`]); when
+    /// back where it started, power off and report [`ControlEvent::SweepEnded`].
+    SweepStops {
+        seq: u64,
+        targets: control::calibration::StopTargets,
+        settings: control::calibration::JointSettings,
+    },
+    /// End the sweep under way: straight back to where it started, then power off.
+    EndSweep { seq: u64 },
     /// Latch an `estop` fault: power off at once.
     Estop { seq: u64 },
     /// Latch a fault the supervisor found (a failed recording): power off at once.
@@ -69,6 +79,8 @@ impl ControlCommand {
             | ControlCommand::SetPlacement { seq, .. }
             | ControlCommand::SetPivot { seq, .. }
             | ControlCommand::SetJointZero { seq, .. }
+            | ControlCommand::SweepStops { seq, .. }
+            | ControlCommand::EndSweep { seq }
             | ControlCommand::Estop { seq }
             | ControlCommand::Latch { seq, .. }
             | ControlCommand::Reset { seq }
@@ -134,6 +146,19 @@ pub enum ControlEvent {
     Timing { t_s: f64, summary: PeriodSummary },
     /// The loop has stopped (shutdown).
     Stopped { t_s: f64 },
+    /// The joint sweep found a stop.
+    StopFound {
+        t_s: f64,
+        found: control::calibration::StopFound,
+    },
+    /// The joint sweep is back where it started and the arm unpowered (`aborted`: it was
+    /// ended early), with the stops it found and the pose it ended at, rad.
+    SweepEnded {
+        t_s: f64,
+        findings: control::calibration::Findings,
+        aborted: bool,
+        at_rad: Joints,
+    },
 }
 
 /// A tactile frame stamped by the loop with what the robot believed at that instant.

@@ -73,7 +73,12 @@ pub fn check_joint_data(l: &SafetyLimits, now_s: f64, s: &JointState) -> Result<
 
 /// Joint range and the θ2/θ3 coupling.
 pub fn check_joint_limits(l: &SafetyLimits, now_s: f64, s: &JointState) -> Result<(), Fault> {
-    let j = &l.joint_limits;
+    check_joints_within(&l.joint_limits, now_s, s)
+}
+
+/// Joint range and the θ2/θ3 coupling against `j` (the configured limits, or the joint
+/// sweep's, widened past the stop it sweeps).
+pub fn check_joints_within(j: &JointLimits, now_s: f64, s: &JointState) -> Result<(), Fault> {
     for i in 0..JOINTS {
         let q = s.position_rad[i];
         if q < j.min_rad[i] {

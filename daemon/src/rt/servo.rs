@@ -84,6 +84,24 @@ pub trait Servo: Send {
         Err(Refusal::Backend)
     }
 
+    /// Torques that steer the joints to `setpoint` in joint space, holding up the arm's own
+    /// bodies only: the instrument is out of the incision, so neither the rod through the
+    /// pivot nor the sensor's pose takes part (the joint stop sweep). A servo without a
+    /// joint-space mode refuses.
+    fn joint_step(
+        &mut self,
+        now_s: f64,
+        _state: &JointState,
+        _setpoint: &control::types::JointSetpoint,
+        _dt_s: f64,
+    ) -> Result<JointTorques, Fault> {
+        Err(Fault::new(crate::rt::fault::FaultKind::Kinematics, now_s)
+            .noting("this servo has no joint-space mode"))
+    }
+
+    /// Forget the PD law's history before powering up in joint space.
+    fn joint_reset(&mut self) {}
+
     /// Come to rest as soon as the motion limits allow.
     fn hold(&mut self, now_s: f64);
 

@@ -42,8 +42,10 @@ pub struct CalibrationSettings {
     pub sensor: ArrayGeometry,
     /// The simulated clock's speed against the wall (1 on hardware).
     pub time_scale: f64,
-    /// The joints' homing: the reset pose and its pass limits.
+    /// The joints' homing and stop sweep: the reset pose, the sweep, the pass limits.
     pub joints: control::calibration::JointSettings,
+    /// The configured software limits the sweep's stops are judged against.
+    pub joint_limits: control::kinematics::JointLimits,
 }
 
 /// A recording under way.
@@ -208,6 +210,9 @@ impl Calibration {
                 "measured_utc": r.measured_utc,
                 "zero_offset_rad": r.zero_offset_rad,
                 "stops": r.stops,
+                "stops_measured_utc": r.stops_measured_utc,
+                "stop_checks": r.stop_checks,
+                "stops_inside_limits": super::joints_sweep::inside_limits(&r.stops),
             })),
             "tare_pending": self.tare.is_some(),
             "recording": self.recording.as_ref().map(|r| json!({
@@ -272,6 +277,9 @@ impl Supervisor {
         if let CalibrateStep::JointsHome { .. } = step {
             return self.joints_home(id, to);
         }
+        if let CalibrateStep::JointsSweep { joints, .. } = step {
+            return self.joints_sweep(id, to, &joints);
+        }
         let cal = &mut self.calibration;
         if cal.recording.is_some() {
             return self.reply_err(
@@ -317,7 +325,8 @@ impl Supervisor {
                     } => format!("under {load_per_element_n} N per element"),
                     CalibrateStep::TissueTouch { .. }
                     | CalibrateStep::PivotTouch { .. }
-                    | CalibrateStep::JointsHome { .. } => {
+                    | CalibrateStep::JointsHome { .. }
+                    | CalibrateStep::JointsSweep { .. } => {
                         String::new()
                     }
                 }
@@ -427,7 +436,8 @@ impl Supervisor {
             } => self.finish_tactile(r.step, &r.frames, load_per_element_n),
             CalibrateStep::TissueTouch { .. }
             | CalibrateStep::PivotTouch { .. }
-            | CalibrateStep::JointsHome { .. } => {}
+            | CalibrateStep::JointsHome { .. }
+            | CalibrateStep::JointsSweep { .. } => {}
         }
     }
 

@@ -3,7 +3,8 @@
 //! incision; the encoders' angles there against the reset pose's known angles give each
 //! joint's zero offset ([`control::calibration::zero_offsets`]), judged, written to the
 //! calibration file and only then handed to the loop, which adds it to every angle it reads.
-//! The stop sweep is not built: the record's `stops` stay empty.
+//! A new homing clears the stops a sweep found (`joints_sweep.rs`): they were read through
+//! the old zero.
 
 use std::time::SystemTime;
 
@@ -78,6 +79,8 @@ impl Supervisor {
             stops: Vec::new(),
             checks: checks.iter().map(CheckRecord::from).collect(),
             passed: all_passed(&checks),
+            stops_measured_utc: None,
+            stop_checks: Vec::new(),
         };
         self.reply_ok(
             id,

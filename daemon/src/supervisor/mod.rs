@@ -8,6 +8,7 @@
 mod artery_scene;
 pub mod calibration;
 mod joints_home;
+pub mod joints_sweep;
 mod live_view;
 mod pivot_touch;
 mod report;
@@ -161,6 +162,10 @@ enum Purpose {
     SetPivot,
     /// An encoder zero that passed and is written, handed to the loop.
     SetJointZero,
+    /// The joint stop sweep powering the arm in joint space.
+    SweepStart,
+    /// `stop` during the sweep: back where it started, then off.
+    SweepStop,
 }
 
 /// A motion that stopped short of its target (see `Supervisor::stopped_short`).
@@ -237,6 +242,8 @@ pub struct Supervisor {
     pivot_result: Option<(Value, config::calibration_file::PivotRecord)>,
     /// The homing's result waiting for the loop to take the new encoder zero.
     joints_result: Option<(Value, config::calibration_file::JointsRecord)>,
+    /// The joint stop sweep under way (state `calibrating`).
+    sweeping: Option<joints_sweep::SweepRun>,
     pending: Vec<Pending>,
     timing: Option<PeriodSummary>,
     overruns_reported: u64,
@@ -313,6 +320,7 @@ impl Supervisor {
             tissue_result: None,
             pivot_result: None,
             joints_result: None,
+            sweeping: None,
             pending: Vec::new(),
             timing: None,
             overruns_reported: 0,
@@ -797,6 +805,13 @@ impl Supervisor {
                 self.timing = Some(summary);
             }
             ControlEvent::Stopped { .. } => {}
+            ControlEvent::StopFound { t_s, found } => self.sweep_found(t_s, found),
+            ControlEvent::SweepEnded {
+                findings,
+                aborted,
+                at_rad,
+                ..
+            } => self.sweep_ended(findings, aborted, at_rad),
         }
     }
 
@@ -819,6 +834,7 @@ impl Supervisor {
                 Purpose::SetPlacement => self.tissue_applied(Some(reason.clone())),
                 Purpose::SetPivot => self.pivot_applied(Some(reason.clone())),
                 Purpose::SetJointZero => self.joints_applied(Some(reason.clone())),
+                Purpose::SweepStart => self.sweeping = None,
                 Purpose::ShutdownHold => {}
                 _ => {}
             }
@@ -865,10 +881,13 @@ impl Supervisor {
             Purpose::SetPlacement => self.tissue_applied(None),
             Purpose::SetPivot => self.pivot_applied(None),
             Purpose::SetJointZero => self.joints_applied(None),
+            Purpose::SweepStart => self.sweep_started(),
+            Purpose::SweepStop => {}
         }
         if let Some((id, to)) = reply {
             let result = match p.purpose {
                 Purpose::ManualMove(_) => json!({"motion_seq": seq}),
+                Purpose::SweepStart => self.sweep_reply(),
                 _ => json!({}),
             };
             self.reply_ok(id, to, result, durable);
@@ -889,6 +908,7 @@ impl Supervisor {
         let dump = self.dump_flight_recorder(&f);
         self.search_abort();
         self.touches_failed(&format!("the arm faulted: {reason}"));
+        self.sweep_failed(&format!("the arm faulted: {reason}"));
         self.end_trial(TrialEnd::Fault);
         self.fault = Some((f, dump.clone()));
         self.set_state(OpState::Fault);
@@ -1178,7 +1198,14 @@ impl Supervisor {
         }
         self.end_trial(TrialEnd::Shutdown);
         self.search_abort();
-        let hold_seq = if self.state.powered() {
+        let sweeping = self.sweeping.is_some();
+        if sweeping {
+            // The joint sweep holds no Cartesian pose to rest at: power off where it is.
+            self.sweep_failed("the daemon is stopping: the arm was powered off where it was");
+            let seq = self.seq();
+            self.send(ControlCommand::Disable { seq }, Purpose::Disable, None);
+        }
+        let hold_seq = if self.state.powered() && !sweeping {
             let seq = self.seq();
             self.motion_seq = seq;
             self.send(ControlCommand::Hold { seq }, Purpose::ShutdownHold, None);

@@ -65,6 +65,7 @@ impl Supervisor {
             Verb::Disable => {
                 self.search_abort();
                 self.touches_failed("disabled");
+                self.sweep_failed("disabled: the arm was powered off where it was");
                 self.end_trial(TrialEnd::Disabled);
                 let seq = self.seq();
                 self.send(
@@ -126,6 +127,9 @@ impl Supervisor {
                 self.reply_ok(id, to, json!({}), true);
             }
             Verb::Stop => {
+                if self.sweeping.is_some() {
+                    return self.sweep_stop(id, to);
+                }
                 self.calibration_stop();
                 self.touches_failed("stopped");
                 if !self.state.powered() {
