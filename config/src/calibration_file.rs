@@ -120,6 +120,14 @@ pub struct TissueRecord {
     pub placement: TissuePlacement,
     /// The fitted surface's tilt from level, rad.
     pub tilt_rad: f64,
+    /// The pivot the touches were placed through, base frame, m, and the encoder zero
+    /// offsets they were read with, rad: a later pivot calibration or homing moves every
+    /// touched point, and the frame must then be measured again. Absent in files from
+    /// before 2026-11-28.
+    #[serde(default)]
+    pub pivot_in_base_m: Option<[f64; 3]>,
+    #[serde(default)]
+    pub joint_zero_rad: Option<[f64; 3]>,
     /// RMS and largest distance of the touched points from the fitted plane, m.
     pub rms_residual_m: f64,
     pub max_residual_m: f64,
@@ -238,6 +246,18 @@ impl Validate for CalibrationFile {
                     t.surface_in_base_m.len() >= 3,
                     "surface_in_base_m",
                     "needs at least 3 touched points",
+                );
+                v.check(
+                    t.pivot_in_base_m
+                        .is_none_or(|p| p.iter().all(|x| x.is_finite())),
+                    "pivot_in_base_m",
+                    "must be finite",
+                );
+                v.check(
+                    t.joint_zero_rad
+                        .is_none_or(|z| z.iter().all(|x| x.is_finite())),
+                    "joint_zero_rad",
+                    "must be finite",
                 );
                 v.check(
                     !t.passed || t.checks.iter().all(|c| c.passed),

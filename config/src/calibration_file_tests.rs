@@ -50,6 +50,8 @@ fn tissue() -> TissueRecord {
             yaw_rad: -0.0997,
         },
         tilt_rad: 0.001,
+        pivot_in_base_m: Some([0.0, 0.0, 0.0]),
+        joint_zero_rad: Some([0.001, 0.0, -0.002]),
         rms_residual_m: 0.0,
         max_residual_m: 0.0,
         checks: vec![],
@@ -127,6 +129,27 @@ fn a_joints_record_from_before_the_stop_sweep_still_loads() {
 }
 
 #[test]
+fn a_tissue_record_from_before_it_named_its_pivot_and_zero_still_loads() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("calibration.ron");
+    let mut record = tissue();
+    record.pivot_in_base_m = None;
+    record.joint_zero_rad = None;
+    let file = CalibrationFile {
+        tissue: Some(record.clone()),
+        ..CalibrationFile::default()
+    };
+    let text = ron::ser::to_string_pretty(&file, ron::ser::PrettyConfig::default())
+        .expect("ron")
+        .replace("        pivot_in_base_m: None,\n", "")
+        .replace("        joint_zero_rad: None,\n", "");
+    assert!(!text.contains("joint_zero_rad"), "{text}");
+    std::fs::write(&path, text).expect("write");
+    let f = load(&path).expect("loads").expect("there").value;
+    assert_eq!(f.tissue, Some(record));
+}
+
+#[test]
 fn a_file_from_before_the_joints_procedure_still_loads() {
     let dir = tempfile::tempdir().expect("tmp");
     let path = dir.path().join("calibration.ron");
@@ -196,16 +219,25 @@ fn a_joints_record_that_cannot_be_used_is_refused_naming_the_field() {
 fn a_file_from_before_the_pivot_procedure_still_loads() {
     let dir = tempfile::tempdir().expect("tmp");
     let path = dir.path().join("calibration.ron");
+    // A tissue record of then names neither the pivot nor the encoder zero.
+    let mut then = tissue();
+    then.pivot_in_base_m = None;
+    then.joint_zero_rad = None;
     let old = CalibrationFile {
         tactile: Some(tactile()),
-        tissue: Some(tissue()),
+        tissue: Some(then),
         ..CalibrationFile::default()
     };
     // As a daemon without the pivot procedure wrote it: no `pivot` field at all.
     let text = ron::ser::to_string_pretty(&old, ron::ser::PrettyConfig::default()).expect("ron");
     let text: String = text
         .lines()
-        .filter(|l| !l.trim_start().starts_with("pivot:"))
+        .filter(|l| {
+            let l = l.trim_start();
+            !["pivot:", "pivot_in_base_m:", "joint_zero_rad:"]
+                .iter()
+                .any(|f| l.starts_with(f))
+        })
         .collect::<Vec<_>>()
         .join("\n");
     assert!(!text.contains("pivot"), "{text}");
@@ -286,6 +318,26 @@ fn a_tissue_record_that_cannot_be_used_is_refused_naming_the_field() {
     .expect("write");
     let e = load(&path).expect_err("infinite yaw").to_string();
     assert!(e.contains("tissue.placement"), "{e}");
+    type Change = fn(&mut TissueRecord);
+    let bad: [(&str, Change); 2] = [
+        ("tissue.pivot_in_base_m", |t| {
+            t.pivot_in_base_m = Some([f64::NAN, 0.0, 0.0])
+        }),
+        ("tissue.joint_zero_rad", |t| {
+            t.joint_zero_rad = Some([0.0, f64::INFINITY, 0.0])
+        }),
+    ];
+    for (field, change) in bad {
+        let mut t = tissue();
+        change(&mut t);
+        let file = CalibrationFile {
+            tissue: Some(t),
+            ..CalibrationFile::default()
+        };
+        std::fs::write(&path, ron::ser::to_string(&file).expect("ron")).expect("write");
+        let e = load(&path).expect_err(field).to_string();
+        assert!(e.contains(field), "{field}: {e}");
+    }
 }
 
 #[test]

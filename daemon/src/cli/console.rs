@@ -367,6 +367,9 @@ fn print_status(r: &Value) {
             o(2),
             tissue["rms_residual_m"].as_f64().unwrap_or(f64::NAN) * 1e3
         );
+        if let Some(why) = tissue["stale"].as_str() {
+            outln!("WARNING: {why}");
+        }
     }
     let pivot = &r["calibration"]["pivot"];
     if pivot.is_object() {

@@ -185,8 +185,9 @@ impl Calibration {
             .unwrap_or(self.settings.sensor)
     }
 
-    /// For `status` and the trial's metadata.
-    pub fn describe(&self) -> Value {
+    /// For `status` and the trial's metadata; `tissue_stale`: why the tissue frame is no
+    /// longer true, if it is not (`tissue_stale.rs`).
+    pub fn describe(&self, tissue_stale: Option<&str>) -> Value {
         json!({
             "file": self.settings.file,
             "tactile": self.applied.as_ref().map(|r| json!({
@@ -199,6 +200,7 @@ impl Calibration {
                 "placement": r.placement,
                 "rms_residual_m": r.rms_residual_m,
                 "tilt_rad": r.tilt_rad,
+                "stale": tissue_stale,
             })),
             "pivot": self.pivot.as_ref().map(|r| json!({
                 "measured_utc": r.measured_utc,

@@ -133,10 +133,11 @@ impl Supervisor {
             );
         }
         let deg = record.zero_offset_rad.map(f64::to_degrees);
-        let line = format!(
+        let mut line = format!(
             "encoder zero calibrated and in use: offsets ({:+.3}, {:+.3}, {:+.3}) deg",
             deg[0], deg[1], deg[2]
         );
+        self.note_tissue_stale(&mut ev, &mut line);
         self.touch_announce(ev, applied, refused.as_deref(), line);
     }
 }

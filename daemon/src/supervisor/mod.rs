@@ -17,6 +17,7 @@ mod search;
 mod search_recording;
 mod search_scene;
 pub mod state;
+mod tissue_stale;
 mod tissue_touch;
 mod touch_run;
 mod tracking;
@@ -337,6 +338,10 @@ impl Supervisor {
 
     /// Run until a shutdown completes or the inputs close.
     pub fn run(mut self) {
+        if let Some(why) = self.tissue_stale() {
+            let t = self.now_s();
+            self.log_line(t, level::WARNING, why);
+        }
         let ticker = tick(Duration::from_millis(50));
         let mut inputs = self.links.inputs.clone();
         loop {
@@ -653,7 +658,9 @@ impl Supervisor {
         trial_meta.insert("context".to_string(), self.s.trial_context.to_string());
         trial_meta.insert(
             "calibration".to_string(),
-            self.calibration.describe().to_string(),
+            self.calibration
+                .describe(self.tissue_stale().as_deref())
+                .to_string(),
         );
         if let Some(cal) = self.calibration.tactile()
             && let Ok(j) = serde_json::to_string(&calibration::json_safe(cal))
@@ -1274,7 +1281,11 @@ impl Supervisor {
         }
         if let Value::Object(o) = &mut v {
             o.insert("live".into(), self.live_status());
-            o.insert("calibration".into(), self.calibration.describe());
+            let stale = self.tissue_stale();
+            o.insert(
+                "calibration".into(),
+                self.calibration.describe(stale.as_deref()),
+            );
         }
         v
     }

@@ -107,11 +107,7 @@ impl Supervisor {
             record.offset_m[1] * 1e3,
             record.rms_residual_m * 1e3
         );
-        if self.calibration.tissue.is_some() {
-            line.push_str(
-                "; the tissue frame in use was measured through the old pivot: run `calibrate tissue` again",
-            );
-        }
+        self.note_tissue_stale(&mut ev, &mut line);
         self.touch_announce(ev, applied, refused.as_deref(), line);
     }
 }

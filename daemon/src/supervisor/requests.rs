@@ -30,6 +30,13 @@ impl Supervisor {
         if let Err(why) = state::admit(self.state, &verb, &self.context()) {
             return self.reply_err(id, to, ErrorCode::WrongState, &why);
         }
+        // A trial or a search placed through a tissue frame that a later pivot calibration
+        // or homing made untrue would report points off the artery.
+        if matches!(verb, Verb::Mark | Verb::Track { .. } | Verb::Search { .. })
+            && let Some(why) = self.tissue_stale()
+        {
+            return self.reply_err(id, to, ErrorCode::WrongState, &why);
+        }
         let t = self.now_s();
         let verb_name = verb.name();
         let logged = serde_json::to_value(VerbRecord {

@@ -27,7 +27,9 @@ impl Supervisor {
         meta.insert("backend".to_string(), self.info.kind.to_string());
         meta.insert(
             "calibration".to_string(),
-            self.calibration.describe().to_string(),
+            self.calibration
+                .describe(self.tissue_stale().as_deref())
+                .to_string(),
         );
         meta.insert("request".to_string(), described.to_string());
         self.open_recording(&id, "search", meta, t, epoch_offset_ns);

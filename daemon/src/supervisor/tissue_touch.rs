@@ -73,6 +73,8 @@ impl Supervisor {
             prior: p.prior,
             placement: fit.placement,
             tilt_rad: fit.tilt_rad,
+            pivot_in_base_m: self.s.arm.map(|a| a.pivot().pivot_in_base_m),
+            joint_zero_rad: Some(self.calibration.joint_zero()),
             rms_residual_m: fit.rms_residual_m,
             max_residual_m: fit.max_residual_m,
             checks: checks.iter().map(CheckRecord::from).collect(),
