@@ -9,7 +9,9 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use nalgebra::{Point3, Vector3};
-use pulsetrack_control::calibration::{JointSettings, JointSweep, StopTargets, SweepPlan};
+use pulsetrack_control::calibration::{
+    JointSettings, JointSweep, StopTargets, SweepPlan, through_zero,
+};
 use pulsetrack_control::frames::SurfacePoint;
 use pulsetrack_control::kinematics::{
     ArmModel, DEFAULT_SENSOR_OFFSET_M, DEFAULT_SURFACE_DEPTH_M, JointLimits, PhantomGeometry,
@@ -294,6 +296,14 @@ fn main() {
                     torque_nm: [0.2, -0.2, 0.1],
                 });
                 black_box((c.ok(), capped, moving_now.limits().min_rad[0]));
+            }),
+        ),
+        (
+            "calibration::through_zero (the homing's offsets, every cycle)",
+            median_ns(|i| {
+                let mut q = joints[i % 64];
+                through_zero(&mut q, black_box(&[0.001, -0.0349, 0.0002]));
+                black_box(q);
             }),
         ),
         (

@@ -152,6 +152,15 @@ pub fn zero_offsets(reset_pose_rad: &Joints, read_rad: &Joints) -> Result<Joints
     Ok(offset)
 }
 
+/// The encoders' angles as the homing corrected them: each joint's zero offset added (every
+/// servo cycle, so measured in the cycle bench: docs/BENCHMARKS.md).
+#[inline]
+pub fn through_zero(position_rad: &mut Joints, zero_offset_rad: &Joints) {
+    for (q, o) in position_rad.iter_mut().zip(zero_offset_rad) {
+        *q += o;
+    }
+}
+
 const ZERO_NAMES: [&str; JOINTS] = [
     "joint 0 zero offset (magnitude)",
     "joint 1 zero offset (magnitude)",

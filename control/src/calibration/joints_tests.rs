@@ -1,7 +1,7 @@
 //! The joints' calibration: the zero offsets and their checks, and the stop sweep against a
 //! joint with a hard stop (a unit inertia with viscous friction, driven by a capped PD).
 
-use super::joints::{JointSettings, Side, StopFound, zero_checks, zero_offsets};
+use super::joints::{JointSettings, Side, StopFound, through_zero, zero_checks, zero_offsets};
 use super::stop_search::{SearchStep, StopSearch};
 use super::tolerance::all_passed;
 use crate::kinematics::JointLimits;
@@ -136,4 +136,16 @@ fn a_sweep_refuses_a_joint_the_arm_does_not_have_and_non_finite_states() {
         stalled: true,
     };
     assert!(bad.check(&limits, &s).is_err());
+}
+
+#[test]
+fn the_encoders_read_through_the_measured_zero_give_the_reset_pose() {
+    let reset = [0.0, 0.1, 0.5];
+    let read = [0.0349, 0.1 - 0.002, 0.5];
+    let offset = zero_offsets(&reset, &read).expect("finite");
+    let mut q = read;
+    through_zero(&mut q, &offset);
+    for j in 0..3 {
+        assert!((q[j] - reset[j]).abs() < 1e-15, "joint {j}: {q:?}");
+    }
 }

@@ -27,7 +27,9 @@ mod joints_tests;
 mod kinematics_tests;
 
 pub use joint_sweep::{Findings, JointSweep, SweepCycle, SweepError};
-pub use joints::{JointSettings, JointsError, Side, StopFound, zero_checks, zero_offsets};
+pub use joints::{
+    JointSettings, JointsError, Side, StopFound, through_zero, zero_checks, zero_offsets,
+};
 pub use level_pivot::{LevelPivotError, LevelPivotFit, check_layout, fit_pivot_level};
 pub use pivot::{PivotFit, PivotFitError, RodLine, fit_pivot};
 pub use stop_search::{SearchStep, StopSearch};

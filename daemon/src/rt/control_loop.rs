@@ -264,9 +264,7 @@ impl ControlLoop {
             .arm
             .read_joints()
             .map_err(|e| JointsProblem::Port(e.0))?;
-        for (q, o) in state.position_rad.iter_mut().zip(self.zero_offset_rad) {
-            *q += o;
-        }
+        control::calibration::through_zero(&mut state.position_rad, &self.zero_offset_rad);
         safety::check_joint_data(&self.limits, now, &state).map_err(JointsProblem::Data)?;
         self.status.position_rad = state.position_rad;
         self.status.velocity_rad_s = state.velocity_rad_s;
