@@ -311,22 +311,7 @@ fn a_full_disk_leaves_the_old_calibration_in_place_and_in_use() {
 fn the_command_line_prints_the_result_and_exits_by_it() {
     let dir = tempfile::tempdir().expect("tmp");
     let (daemon, mut c) = start(dir.path(), &setup());
-    let cli = |args: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
-            .arg("calibrate")
-            .args(args)
-            .arg("--socket")
-            .arg(&daemon.socket)
-            .arg("--config")
-            .arg(&daemon.config)
-            .output()
-            .expect("run pulsetrack calibrate");
-        (
-            out.status.code(),
-            String::from_utf8_lossy(&out.stdout).to_string(),
-            String::from_utf8_lossy(&out.stderr).to_string(),
-        )
-    };
+    let cli = |args: &[&str]| daemon.cli(&[&["calibrate"], args].concat());
     place(&mut c, Some(0.0));
     let (code, out, err) = cli(&["tactile", "tare", "--duration-s", "2", "--json"]);
     assert_eq!(code, Some(0), "{out}{err}");

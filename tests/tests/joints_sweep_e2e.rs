@@ -179,21 +179,7 @@ fn the_sweep_finds_a_stop_inside_the_limit_says_so_writes_it_and_loads_it_again(
     );
     // The command line, for people: degrees, the stop inside its limit said plainly, and a
     // failing exit code for a sweep whose stops do not pass.
-    let cli = |args: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
-            .args(args)
-            .arg("--socket")
-            .arg(&daemon.socket)
-            .arg("--config")
-            .arg(&daemon.config)
-            .output()
-            .expect("run pulsetrack");
-        (
-            out.status.code(),
-            String::from_utf8_lossy(&out.stdout).to_string(),
-            String::from_utf8_lossy(&out.stderr).to_string(),
-        )
-    };
+    let cli = |args: &[&str]| daemon.cli(args);
     let (code, out, err) = cli(&["status"]);
     assert_eq!(code, Some(0), "{out}{err}");
     assert!(

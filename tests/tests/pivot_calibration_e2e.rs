@@ -144,12 +144,7 @@ fn the_pivot_is_found_by_touch_written_used_and_loaded_again() {
         json!(record.pivot_in_base_m),
         "{status}"
     );
-    let human = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
-        .args(["status", "--socket"])
-        .arg(&daemon.socket)
-        .output()
-        .expect("pt-console status");
-    let said = String::from_utf8_lossy(&human.stdout);
+    let (_, said, _) = daemon.cli(&["status"]);
     let moved_z_mm = format!("z {:+.2} mm", record.offset_m[1] * 1e3);
     assert!(
         said.contains(&format!("calibrated pivot of {}", record.measured_utc))
@@ -291,12 +286,7 @@ fn a_pivot_calibrated_after_the_tissue_frame_makes_it_stale_until_measured_again
         e2e::assert_says(&r, "reason", "calibrate tissue");
     }
     // The human status says it too.
-    let human = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
-        .args(["status", "--socket"])
-        .arg(&daemon.socket)
-        .output()
-        .expect("pt-console status");
-    let said = String::from_utf8_lossy(&human.stdout);
+    let (_, said, _) = daemon.cli(&["status"]);
     assert!(said.contains("WARNING: the tissue frame"), "{said}");
 
     // Measured again through the calibrated pivot the plate reads level and the frame

@@ -552,19 +552,7 @@ impl ControlLoop {
         if self.status.mode == LoopMode::Enabled {
             return Err(Refusal::AlreadyEnabled);
         }
-        // No joint data this cycle: the arm may hold a fault of its own (a bus lost while
-        // unpowered); clear it if its cause is gone, else say what the cause is.
-        let recovered;
-        let state = match joints {
-            Some(s) => s,
-            None => {
-                recovered = self.recover_arm(now).map_err(|p| match p {
-                    JointsProblem::Port(why) => Refusal::Cause(why.into()),
-                    JointsProblem::Data(f) => Refusal::CauseStillPresent(f.kind),
-                })?;
-                &recovered
-            }
-        };
+        let state = &self.joints_to_power(now, joints)?;
         safety::check_joint_limits(&self.limits, now, state)
             .map_err(|f| Refusal::CauseStillPresent(f.kind))?;
         safety::check_tactile(
@@ -594,6 +582,23 @@ impl ControlLoop {
         self.status.settled = true;
         self.status.shortfall = None;
         Ok(())
+    }
+
+    /// The joints to power the arm from: this cycle's; without them (the arm may hold a fault
+    /// of its own, a bus lost while unpowered) its fault cleared if the cause is gone and
+    /// fresh joints read, else what the cause is.
+    pub(super) fn joints_to_power(
+        &mut self,
+        now: f64,
+        joints: Option<&JointState>,
+    ) -> Result<JointState, Refusal> {
+        match joints {
+            Some(s) => Ok(*s),
+            None => self.recover_arm(now).map_err(|p| match p {
+                JointsProblem::Port(why) => Refusal::Cause(why.into()),
+                JointsProblem::Data(f) => Refusal::CauseStillPresent(f.kind),
+            }),
+        }
     }
 
     /// Clear the arm's own latched fault if it has one, and read fresh joints.

@@ -35,31 +35,11 @@ impl Supervisor {
                 "a joints calibration is being applied; wait for its result",
             );
         }
-        let Some(st) = self.links.status.read() else {
-            return self.reply_err(
-                id,
-                to,
-                ErrorCode::Unavailable,
-                "the control loop has not reported the joints yet",
-            );
+        let st = match self.joints_at_rest() {
+            Ok(st) => st,
+            Err((code, why)) => return self.reply_err(id, to, code, &why),
         };
         let settings = self.calibration.settings.joints;
-        if let Some((j, v)) = st
-            .velocity_rad_s
-            .iter()
-            .enumerate()
-            .find(|(_, v)| v.is_nan() || v.abs() >= settings.stall_speed_rad_s)
-        {
-            return self.reply_err(
-                id,
-                to,
-                ErrorCode::Refused,
-                &format!(
-                    "joint {j} is moving ({v:.4} rad/s, calibration.joints.stall_speed_rad_s {}): the arm must rest against its reset fixture",
-                    settings.stall_speed_rad_s
-                ),
-            );
-        }
         // The angles as the encoders give them, before the offset in use.
         let in_use = self.calibration.joint_zero();
         let mut read = st.position_rad;
@@ -111,6 +91,33 @@ impl Supervisor {
                 );
             }
             Err(_) => self.touch_announce(ev, false, None, String::new()),
+        }
+    }
+
+    /// The loop's last report of the arm, once every joint rests (slower than
+    /// `calibration.joints.stall_speed_rad_s`): the homing and the sweep both start from the
+    /// arm at rest against its reset fixture.
+    pub(super) fn joints_at_rest(&self) -> Result<ControlStatus, (ErrorCode, String)> {
+        let Some(st) = self.links.status.read() else {
+            return Err((
+                ErrorCode::Unavailable,
+                "the control loop has not reported the joints yet".into(),
+            ));
+        };
+        let stall = self.calibration.settings.joints.stall_speed_rad_s;
+        match st
+            .velocity_rad_s
+            .iter()
+            .enumerate()
+            .find(|(_, v)| v.is_nan() || v.abs() >= stall)
+        {
+            Some((j, v)) => Err((
+                ErrorCode::Refused,
+                format!(
+                    "joint {j} is moving ({v:.4} rad/s, calibration.joints.stall_speed_rad_s {stall}): the arm must rest against its reset fixture"
+                ),
+            )),
+            None => Ok(st),
         }
     }
 

@@ -103,31 +103,11 @@ impl Supervisor {
             Ok(_) => StopTargets::all(),
             Err(e) => return refuse(self, to, ErrorCode::BadArgument, &format!("`joints`: {e}")),
         };
-        let Some(st) = self.links.status.read() else {
-            return refuse(
-                self,
-                to,
-                ErrorCode::Unavailable,
-                "the control loop has not reported the joints yet",
-            );
+        let st = match self.joints_at_rest() {
+            Ok(st) => st,
+            Err((code, why)) => return refuse(self, to, code, &why),
         };
         let settings = self.calibration.settings.joints;
-        if let Some((j, v)) = st
-            .velocity_rad_s
-            .iter()
-            .enumerate()
-            .find(|(_, v)| v.is_nan() || v.abs() >= settings.stall_speed_rad_s)
-        {
-            return refuse(
-                self,
-                to,
-                ErrorCode::Refused,
-                &format!(
-                    "joint {j} is moving ({v:.4} rad/s, calibration.joints.stall_speed_rad_s {}): the arm must rest against its reset fixture",
-                    settings.stall_speed_rad_s
-                ),
-            );
-        }
         let limits = self.calibration.settings.joint_limits;
         let plan = match SweepPlan::new(&st.position_rad, targets, &limits, &settings) {
             Ok(p) => p,

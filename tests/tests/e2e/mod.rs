@@ -154,6 +154,24 @@ pub fn start_wrapped(dir: &Path, config: PathBuf, wrapper: &[&str]) -> (Running,
 }
 
 impl Running {
+    /// The command line against this daemon (`args`, then its socket and config): the exit
+    /// code, stdout and stderr.
+    pub fn cli(&self, args: &[&str]) -> (Option<i32>, String, String) {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_pt-console"))
+            .args(args)
+            .arg("--socket")
+            .arg(&self.socket)
+            .arg("--config")
+            .arg(&self.config)
+            .output()
+            .expect("run pulsetrack");
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).to_string(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    }
+
     pub fn log(&self) -> String {
         std::fs::read_to_string(self.dir.join("daemon.log")).unwrap_or_default()
     }

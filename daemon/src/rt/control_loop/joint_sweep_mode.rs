@@ -11,7 +11,7 @@
 use control::calibration::{JointSettings, JointSweep, StopTargets, SweepError, SweepPlan};
 use control::types::{JointState, JointTorques};
 
-use super::{ControlLoop, JointsProblem};
+use super::ControlLoop;
 use crate::rt::fault::{Fault, FaultKind};
 use crate::rt::link::{ControlEvent, LoopMode, Refusal};
 use crate::rt::safety;
@@ -28,17 +28,7 @@ impl ControlLoop {
         if self.status.mode == LoopMode::Enabled {
             return Err(Refusal::AlreadyEnabled);
         }
-        let recovered;
-        let state = match joints {
-            Some(s) => s,
-            None => {
-                recovered = self.recover_arm(now).map_err(|p| match p {
-                    JointsProblem::Port(why) => Refusal::Cause(why.into()),
-                    JointsProblem::Data(f) => Refusal::CauseStillPresent(f.kind),
-                })?;
-                &recovered
-            }
-        };
+        let state = &self.joints_to_power(now, joints)?;
         let limits = self.limits.joint_limits;
         let plan = SweepPlan::new(&state.position_rad, targets, &limits, &settings)
             .map_err(|e| Refusal::Cause(e.to_string().into()))?;
