@@ -22,20 +22,11 @@ const RECOVERED_WITHIN_RAD: f64 = 0.7e-3;
 /// The pivot procedure's unweighted bench, its arm starting in the reset pose with the
 /// instrument out and the encoders carrying the error.
 fn scene_file(dir: &Path) -> String {
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../config/scenes/pivot-off-arc-145-unweighted.ron"),
-    )
-    .expect("shipped scene");
-    let end = text.rfind(')').expect("the scene's closing bracket");
     let joints = format!(
-        "    joints: (encoder_zero_error_rad: ({:?}, {:?}, {:?}), start_at_reset: true),\n",
+        "joints: (encoder_zero_error_rad: ({:?}, {:?}, {:?}), start_at_reset: true),",
         ZERO_ERROR_RAD[0], ZERO_ERROR_RAD[1], ZERO_ERROR_RAD[2]
     );
-    let scene = format!("{}{joints}{}", &text[..end], &text[end..]);
-    let path = dir.join("joints-error.ron");
-    std::fs::write(&path, scene).expect("write scene");
-    path.display().to_string()
+    e2e::unweighted_bench_with_joints(dir, "joints-error.ron", &joints)
 }
 
 fn setup(dir: &Path) -> Setup {

@@ -33,21 +33,12 @@ fn scene_file(dir: &Path) -> String {
 /// The bench with joint 0's lower stop `lower_beyond_rad` beyond its limit, the other stops
 /// 50 mrad outside theirs.
 fn scene_with_lower_stop(dir: &Path, lower_beyond_rad: f64) -> String {
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../config/scenes/pivot-off-arc-145-unweighted.ron"),
-    )
-    .expect("shipped scene");
-    let end = text.rfind(')').expect("the scene's closing bracket");
     let joints = format!(
-        "    joints: (encoder_zero_error_rad: ({ZERO_ERROR_RAD:?}, 0.0, 0.0), \
+        "joints: (encoder_zero_error_rad: ({ZERO_ERROR_RAD:?}, 0.0, 0.0), \
          stop_beyond_limit_rad: (({lower_beyond_rad:?}, {UPPER_BEYOND_RAD:?}), (0.05, 0.05), (0.05, 0.05)), \
-         start_at_reset: true),\n"
+         start_at_reset: true),"
     );
-    let scene = format!("{}{joints}{}", &text[..end], &text[end..]);
-    let path = dir.join("joints-stops.ron");
-    std::fs::write(&path, scene).expect("write scene");
-    path.display().to_string()
+    e2e::unweighted_bench_with_joints(dir, "joints-stops.ron", &joints)
 }
 
 fn setup(dir: &Path) -> Setup {

@@ -512,3 +512,18 @@ pub fn start_on_small_disk(
     );
     Some((daemon, c, small, path))
 }
+
+/// The pivot procedure's unweighted bench with a `joints` block (`joints_ron`, the scene's
+/// `joints: (...)` line) for the joints procedures, written into `dir` as `name`; its path.
+pub fn unweighted_bench_with_joints(dir: &Path, name: &str, joints_ron: &str) -> String {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../config/scenes/pivot-off-arc-145-unweighted.ron"),
+    )
+    .expect("shipped scene");
+    let end = text.rfind(')').expect("the scene's closing bracket");
+    let scene = format!("{}    {joints_ron}\n{}", &text[..end], &text[end..]);
+    let path = dir.join(name);
+    std::fs::write(&path, scene).expect("write scene");
+    path.display().to_string()
+}
