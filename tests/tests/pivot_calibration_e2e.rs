@@ -306,3 +306,47 @@ fn a_pivot_calibrated_after_the_tissue_frame_makes_it_stale_until_measured_again
     assert_ne!(r["error"], "wrong_state", "{r}");
     daemon.stop();
 }
+
+/// A pivot off along the course (base `x`) and back across it at once: the same procedure
+/// finds both components (the shipped bench's error is across the course only).
+#[test]
+fn a_pivot_off_along_and_across_the_course_is_found_both_ways() {
+    const OFFSET_M: [f64; 2] = [0.004, -0.003];
+    let dir = tempfile::tempdir().expect("tmp");
+    let shipped = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../config/scenes")
+            .join(SCENE),
+    )
+    .expect("shipped scene");
+    let moved = shipped.replace(
+        "offset_m: (0.0, 0.0, 0.005),",
+        &format!("offset_m: ({:?}, 0.0, {:?}),", OFFSET_M[0], OFFSET_M[1]),
+    );
+    assert_ne!(moved, shipped, "the scene's pivot offset line changed");
+    let scene = dir.path().join("pivot-off-diagonal.ron");
+    std::fs::write(&scene, moved).expect("write scene");
+    let (daemon, mut c) = start(
+        dir.path(),
+        &Setup {
+            scene: scene.display().to_string(),
+            ..Setup::default()
+        },
+    );
+    call(&mut c, "subscribe", json!({"streams": ["calibration"]}));
+    call(&mut c, "enable", json!({}));
+    let done = e2e::calibrate_and_wait(&mut c, request());
+    assert_eq!(done["applied"], true, "{done}");
+    for i in 0..2 {
+        let error = e2e::num(&done["offset_m"][i]) - OFFSET_M[i];
+        assert!(
+            error.abs() < RECOVERED_WITHIN_M,
+            "offset {i} off by {error} m: {done}"
+        );
+    }
+    eprintln!(
+        "pivot fit (diagonal): offset {} m, standard error {} m, residual {} m",
+        done["offset_m"], done["standard_error_m"], done["rms_residual_m"]
+    );
+    daemon.stop();
+}
