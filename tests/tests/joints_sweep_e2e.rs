@@ -7,7 +7,7 @@
 //! calibration file's `joints` record, show them in `status` and load them at the next start.
 //! Refused: a sweep before the homing, without `instrument_out`, with a joint that does not
 //! exist. `stop` mid-sweep brings the arm back where it started, powers it off and writes
-//! nothing.
+//! nothing; `disable` mid-sweep powers it off at once and writes nothing.
 
 mod e2e;
 
@@ -213,7 +213,47 @@ fn the_sweep_finds_a_stop_inside_the_limit_says_so_writes_it_and_loads_it_again(
 #[test]
 fn stop_mid_sweep_brings_the_arm_back_powers_it_off_and_writes_nothing() {
     let dir = tempfile::tempdir().expect("tmp");
-    let (daemon, mut c) = start(dir.path(), &setup(dir.path()));
+    let (daemon, mut c, before, start_q0) = mid_sweep(dir.path());
+    call(&mut c, "stop", json!({}));
+    let end = e2e::wait_calibration_end(&mut c, "joints");
+    assert_eq!(end["phase"], "failed", "{end}");
+    e2e::assert_says(&end, "reason", "stopped");
+    assert_eq!(e2e::state(&mut c), "disabled");
+    let q0 = e2e::num(&call(&mut c, "status", json!({}))["arm"]["position_rad"][0]);
+    assert!(
+        (q0 - start_q0).abs() < 0.02,
+        "joint 0 at {q0} rad, started at {start_q0} rad"
+    );
+    nothing_written(dir.path(), &before);
+    daemon.stop();
+}
+
+/// `disable` mid-sweep powers the arm off where it is, at once, and writes nothing.
+#[test]
+fn disable_mid_sweep_powers_the_arm_off_at_once_and_writes_nothing() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let (daemon, mut c, before, _) = mid_sweep(dir.path());
+    call(&mut c, "disable", json!({}));
+    let end = e2e::wait_calibration_end(&mut c, "joints");
+    assert_eq!(end["phase"], "failed", "{end}");
+    e2e::assert_says(&end, "reason", "disabled");
+    assert_eq!(e2e::state(&mut c), "disabled");
+    let s = call(&mut c, "status", json!({}));
+    assert_ne!(s["arm"]["mode"], "enabled", "{s}");
+    nothing_written(dir.path(), &before);
+    // The next sweep waits for the arm to be put back at rest, and says so (unheld, the
+    // simulated arm sags under gravity); the daemon needs no restart.
+    let r = c.request("calibrate", sweep0(), T).expect("reply");
+    assert_eq!(r["error"], "refused", "{r}");
+    e2e::assert_says(&r, "reason", "is moving");
+    daemon.stop();
+}
+
+/// The homed bench with the sweep of joint 0 well on its way to the lower stop: the daemon,
+/// its client (subscribed), the calibration file's bytes before the sweep, and joint 0's
+/// angle where the sweep began.
+fn mid_sweep(dir: &Path) -> (e2e::Running, daemon::console::client::Client, Vec<u8>, f64) {
+    let (daemon, mut c) = start(dir, &setup(dir));
     call(
         &mut c,
         "subscribe",
@@ -221,12 +261,10 @@ fn stop_mid_sweep_brings_the_arm_back_powers_it_off_and_writes_nothing() {
     );
     let homed = e2e::calibrate_and_wait(&mut c, home());
     assert_eq!(homed["applied"], true, "{homed}");
-    let before = std::fs::read(dir.path().join("calibration.ron")).expect("written");
+    let before = std::fs::read(dir.join("calibration.ron")).expect("written");
     let start_q0 = e2e::num(&call(&mut c, "status", json!({}))["arm"]["position_rad"][0]);
-
     let r = call(&mut c, "calibrate", sweep0());
     assert_eq!(r["step"], "sweep", "{r}");
-    // Well on its way to the lower stop.
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
     loop {
         let s = call(&mut c, "status", json!({}));
@@ -240,23 +278,17 @@ fn stop_mid_sweep_brings_the_arm_back_powers_it_off_and_writes_nothing() {
         );
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
-    call(&mut c, "stop", json!({}));
-    let end = e2e::wait_calibration_end(&mut c, "joints");
-    assert_eq!(end["phase"], "failed", "{end}");
-    e2e::assert_says(&end, "reason", "stopped");
-    assert_eq!(e2e::state(&mut c), "disabled");
-    let q0 = e2e::num(&call(&mut c, "status", json!({}))["arm"]["position_rad"][0]);
-    assert!(
-        (q0 - start_q0).abs() < 0.02,
-        "joint 0 at {q0} rad, started at {start_q0} rad"
-    );
+    (daemon, c, before, start_q0)
+}
+
+/// The calibration file as it was before the sweep, and no stops in it.
+fn nothing_written(dir: &Path, before: &[u8]) {
     assert_eq!(
-        std::fs::read(dir.path().join("calibration.ron")).expect("there"),
+        std::fs::read(dir.join("calibration.ron")).expect("there"),
         before,
         "the calibration file changed"
     );
-    assert!(joints_on_file(dir.path()).stops.is_empty());
-    daemon.stop();
+    assert!(joints_on_file(dir).stops.is_empty());
 }
 
 /// Every joint, on the stops the simulator puts 50 mrad outside each software limit: θ2 and
