@@ -74,6 +74,9 @@ pub struct Calibrated {
     /// The pivot (base frame, m) the kinematics use in place of `robot.pivot`'s (the
     /// scene's true incision stays where the config and the scene put it).
     pub pivot_in_base_m: Option<[f64; 3]>,
+    /// The homing's encoder zero offsets, rad, added to every angle read (as the daemon's
+    /// loop does; the scene's encoder error stays).
+    pub joint_zero_rad: Option<[f64; 3]>,
 }
 
 /// [`run_trial`] with a calibration applied.
@@ -139,6 +142,8 @@ struct Lockstep {
     load_reading: Option<LoadReading>,
     /// The array's calibration, applied to every frame before the tracker sees it.
     calibration: Option<TactileCalibration>,
+    /// The homing's encoder zero offsets, added to every angle read, rad.
+    joint_zero_rad: [f64; 3],
 }
 
 /// The rod and the arm's own bodies, to read where the sensor is from the motors' torque
@@ -242,6 +247,7 @@ impl Lockstep {
             recent_truth: std::collections::VecDeque::with_capacity(RECENT_FRAMES + 1),
             load_reading: None,
             calibration: calibrated.tactile,
+            joint_zero_rad: calibrated.joint_zero_rad.unwrap_or([0.0; 3]),
         };
         lockstep.load_reading = described_rod(config, &lockstep.bench).map(|rod| LoadReading {
             rod,
@@ -254,6 +260,13 @@ impl Lockstep {
 
     fn now(&self) -> f64 {
         self.bench.now_s()
+    }
+
+    /// The joints as the robot reads them: the encoders through the homing's zero offsets.
+    fn read_joints(&self) -> control::types::JointState {
+        let mut state = self.bench.read_joints();
+        control::calibration::through_zero(&mut state.position_rad, &self.joint_zero_rad);
+        state
     }
 
     /// Read the encoders and work out where the robot believes the sensor is.
@@ -273,7 +286,7 @@ impl Lockstep {
             }
             return Ok(());
         }
-        let state = self.bench.read_joints();
+        let state = self.read_joints();
         self.believed = self.model.sensor_from_joints(&state.position_rad)?;
         Ok(())
     }
@@ -284,7 +297,7 @@ impl Lockstep {
         if self.bench.is_ideal() {
             return Ok(());
         }
-        let state = self.bench.read_joints();
+        let state = self.read_joints();
         let j = self.model.sensor_jacobian(&state.position_rad)?;
         let v = j * Vector3::from(state.velocity_rad_s);
         self.believed_speed_m_s = v.x.hypot(v.z);
@@ -302,7 +315,7 @@ impl Lockstep {
         if self.bench.is_ideal() {
             return None;
         }
-        let q = self.bench.read_joints().position_rad;
+        let q = self.read_joints().position_rad;
         let body = r.bodies.torque_nm(&q);
         self.model
             .sensor_felt(
@@ -373,7 +386,7 @@ impl Lockstep {
                 self.bench.place_ideal(SurfacePoint::new(p.x, p.z));
             }
         } else {
-            let state = self.bench.read_joints();
+            let state = self.read_joints();
             let setpoint = self
                 .joint_setpoint()
                 .map_err(|e| Stop::Fault(e.to_string()))?;

@@ -149,6 +149,53 @@ fn the_encoder_zero_is_measured_written_used_and_loaded_again() {
         },
         "joints calibration",
     );
+
+    // A tracker run through the homing against one without it (the lockstep runner, seeds
+    // 1 and 2): the shipped 145 mm arc with the same encoder error, the mass on.
+    let shipped = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/scenes/seed-arc-145.ron"),
+    )
+    .expect("shipped scene");
+    let end = shipped.rfind(')').expect("the scene's closing bracket");
+    let scene = dir.path().join("arc-145-encoder-error.ron");
+    std::fs::write(
+        &scene,
+        format!(
+            "{}    joints: (encoder_zero_error_rad: ({:?}, {:?}, {:?})),\n{}",
+            &shipped[..end],
+            ZERO_ERROR_RAD[0],
+            ZERO_ERROR_RAD[1],
+            ZERO_ERROR_RAD[2],
+            &shipped[end..]
+        ),
+    )
+    .expect("write scene");
+    let scene = scene.display().to_string();
+    let worst = |doc: &Value| -> (f64, usize) {
+        let trials = doc["trials"].as_array().expect("trials");
+        let mean = trials
+            .iter()
+            .map(|t| e2e::num(&t["lateral_error_m"]["mean"]).abs())
+            .fold(0.0, f64::max);
+        let done = trials.iter().filter(|t| t["completed"] == true).count();
+        (mean, done)
+    };
+    let (off_without, done_without) = worst(&e2e::sim_two_trials(&scene, &[]));
+    let (off_with, done_with) = worst(&e2e::sim_two_trials(
+        &scene,
+        &["--calibration", &path.display().to_string()],
+    ));
+    eprintln!(
+        "encoder error: worst mean lateral error {off_without} m ({done_without} of 2 completed) without, {off_with} m ({done_with} of 2) homed"
+    );
+    assert!(
+        off_with < 1e-3 && done_with == 2,
+        "homed: {off_with} m, {done_with} of 2"
+    );
+    assert!(
+        off_without > 3.0 * off_with || done_without < 2,
+        "without: {off_without} m, {done_without} of 2"
+    );
 }
 
 /// "Applied means written": with no room for the new file the zero is announced as not

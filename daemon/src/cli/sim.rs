@@ -65,8 +65,9 @@ pub struct Args {
     pub calibration: Option<PathBuf>,
 }
 
-/// The tactile calibration in `path`'s calibration file; refused as the daemon would refuse it
-/// (none, one that did not pass, or one leaving too few elements with `sensor`'s skipped).
+/// The calibrations in `path`'s calibration file (tactile, tissue, pivot, the joints' zero);
+/// refused as the daemon would refuse them (none, one that did not pass, or a tactile one
+/// leaving too few elements with `sensor`'s skipped).
 fn file_calibration(
     path: &Path,
     sensor: &control::sensor::ArrayGeometry,
@@ -75,7 +76,11 @@ fn file_calibration(
         .map_err(|e| e.to_string())?
         .ok_or_else(|| format!("{}: no such file", path.display()))?
         .value;
-    if file.tactile.is_none() && file.tissue.is_none() && file.pivot.is_none() {
+    if file.tactile.is_none()
+        && file.tissue.is_none()
+        && file.pivot.is_none()
+        && file.joints.is_none()
+    {
         return Err(format!("{}: holds no calibration", path.display()));
     }
     // The daemon's own tests of a record it may use.
@@ -97,10 +102,16 @@ fn file_calibration(
         .map(|r| crate::supervisor::calibration::usable_pivot(&r))
         .transpose()
         .map_err(|e| format!("{}: {e}", path.display()))?;
+    let joint_zero_rad = file
+        .joints
+        .map(|r| crate::supervisor::calibration::usable_joints(&r))
+        .transpose()
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(sim::runner::Calibrated {
         tactile,
         tissue,
         pivot_in_base_m,
+        joint_zero_rad,
     })
 }
 
