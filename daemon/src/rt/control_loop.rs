@@ -549,19 +549,10 @@ impl ControlLoop {
     }
 
     fn enable(&mut self, now: f64, joints: Option<&JointState>) -> Result<(), Refusal> {
-        if self.status.mode == LoopMode::Enabled {
-            return Err(Refusal::AlreadyEnabled);
-        }
         let state = &self.joints_to_power(now, joints)?;
         safety::check_joint_limits(&self.limits, now, state)
             .map_err(|f| Refusal::CauseStillPresent(f.kind))?;
-        safety::check_tactile(
-            &self.limits,
-            now,
-            self.status.tactile_t_s,
-            self.status.contact_n,
-        )
-        .map_err(|f| Refusal::CauseStillPresent(f.kind))?;
+        self.tactile_to_power(now)?;
         let pose = self
             .last_pose
             .ok_or(Refusal::CauseStillPresent(FaultKind::Kinematics))?;
@@ -584,14 +575,17 @@ impl ControlLoop {
         Ok(())
     }
 
-    /// The joints to power the arm from: this cycle's; without them (the arm may hold a fault
-    /// of its own, a bus lost while unpowered) its fault cleared if the cause is gone and
-    /// fresh joints read, else what the cause is.
+    /// The joints to power the unpowered arm from (powered: refused): this cycle's; without
+    /// them (the arm may hold a fault of its own, a bus lost while unpowered) its fault
+    /// cleared if the cause is gone and fresh joints read, else what the cause is.
     pub(super) fn joints_to_power(
         &mut self,
         now: f64,
         joints: Option<&JointState>,
     ) -> Result<JointState, Refusal> {
+        if self.status.mode == LoopMode::Enabled {
+            return Err(Refusal::AlreadyEnabled);
+        }
         match joints {
             Some(s) => Ok(*s),
             None => self.recover_arm(now).map_err(|p| match p {
@@ -599,6 +593,17 @@ impl ControlLoop {
                 JointsProblem::Data(f) => Refusal::CauseStillPresent(f.kind),
             }),
         }
+    }
+
+    /// The tactile array as powering the arm needs it: fresh frames and no contact overload.
+    pub(super) fn tactile_to_power(&self, now: f64) -> Result<(), Refusal> {
+        safety::check_tactile(
+            &self.limits,
+            now,
+            self.status.tactile_t_s,
+            self.status.contact_n,
+        )
+        .map_err(|f| Refusal::CauseStillPresent(f.kind))
     }
 
     /// Clear the arm's own latched fault if it has one, and read fresh joints.

@@ -25,20 +25,11 @@ impl ControlLoop {
         targets: StopTargets,
         settings: JointSettings,
     ) -> Result<(), Refusal> {
-        if self.status.mode == LoopMode::Enabled {
-            return Err(Refusal::AlreadyEnabled);
-        }
         let state = &self.joints_to_power(now, joints)?;
         let limits = self.limits.joint_limits;
         let plan = SweepPlan::new(&state.position_rad, targets, &limits, &settings)
             .map_err(|e| Refusal::Cause(e.to_string().into()))?;
-        safety::check_tactile(
-            &self.limits,
-            now,
-            self.status.tactile_t_s,
-            self.status.contact_n,
-        )
-        .map_err(|f| Refusal::CauseStillPresent(f.kind))?;
+        self.tactile_to_power(now)?;
         self.servo.joint_reset();
         if let Err(e) = self.arm.enable() {
             tracing::error!("enabling the arm for the joint sweep: {e}");

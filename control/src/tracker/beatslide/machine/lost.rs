@@ -70,20 +70,27 @@ impl BeatSlide {
     ) -> Result<(PulseFound, KernelFit, SurfacePoint, Observation), Miss> {
         let (found, fit, sensor) = self.search_at_rest(since)?;
         self.check_amplitude(&fit)?;
-        // Re-finding the artery needs it on the array, not at its edge.
-        if !(fit.element >= -0.5 && fit.element <= crate::types::ELEMENTS as f64 - 0.5)
-            || fit.offset_se_m >= 2.0 * self.geometry.pitch_m
-        {
-            return Err(Miss::AtEdge {
-                element: fit.element,
-            });
-        }
+        self.check_on_array(&fit)?;
         let observation = Observation {
             point: SurfacePoint::new(sensor.x_m, sensor.z_m + fit.offset_z_m),
             sd_m: self.fix_sd(&fit),
             lag_dir: self.history.since(since).mean_lag(),
         };
         Ok((found, fit, sensor, observation))
+    }
+
+    /// Re-finding the artery needs it on the array, not at its edge: the fit's centre within
+    /// half an element of the ends and its place known within two pitches.
+    fn check_on_array(&self, fit: &KernelFit) -> Result<(), Miss> {
+        let on = fit.element >= -0.5 && fit.element <= crate::types::ELEMENTS as f64 - 0.5;
+        // A NaN SE fails the comparison: not placed.
+        if on && fit.offset_se_m < 2.0 * self.geometry.pitch_m {
+            Ok(())
+        } else {
+            Err(Miss::AtEdge {
+                element: fit.element,
+            })
+        }
     }
 
     /// Start the path model afresh from two observations (the heading along their chord),
@@ -307,13 +314,10 @@ impl BeatSlide {
                 needed,
             });
         }
-        if k.at_edge
-            || !k.offset_se_m.is_finite()
-            || !(k.element >= -0.5 && k.element <= crate::types::ELEMENTS as f64 - 0.5)
-            || k.offset_se_m >= 2.0 * self.geometry.pitch_m
-        {
+        if k.at_edge {
             return Err(Miss::AtEdge { element: k.element });
         }
+        self.check_on_array(k)?;
         self.check_amplitude(k)?;
         let observation = Observation {
             point: fix.point(),
