@@ -27,17 +27,7 @@ impl BeatSlide {
             && self.goes_back_at_once()
             && let Some(toward) = self.last_fix
         {
-            self.emit(TrackerEvent::Backtracking {
-                t_s: input.frame.t_s,
-                toward,
-            });
-            self.state = State::Returning {
-                target: toward,
-                frames: 0,
-                attempt: 2,
-                from_s: None,
-            };
-            return;
+            return self.go_back(input.frame.t_s, toward);
         }
         if frames > 0 && input.settled {
             self.state = State::Searching {
@@ -50,6 +40,17 @@ impl BeatSlide {
                 attempt,
             };
         }
+    }
+
+    /// Back toward the last fix, `toward` (then a search there: attempt 2).
+    fn go_back(&mut self, t_s: f64, toward: SurfacePoint) {
+        self.emit(TrackerEvent::Backtracking { t_s, toward });
+        self.state = State::Returning {
+            target: toward,
+            frames: 0,
+            attempt: 2,
+            from_s: None,
+        };
     }
 
     /// Going back listening, without the search at rest where it stopped: for a regular
@@ -176,15 +177,7 @@ impl BeatSlide {
                     .unwrap_or(input.sensor);
                 self.emit(TrackerEvent::Missed { t_s: t, at });
                 match (attempt, self.last_fix) {
-                    (1, Some(toward)) => {
-                        self.emit(TrackerEvent::Backtracking { t_s: t, toward });
-                        self.state = State::Returning {
-                            target: toward,
-                            frames: 0,
-                            attempt: 2,
-                            from_s: None,
-                        };
-                    }
+                    (1, Some(toward)) => self.go_back(t, toward),
                     _ => self.finish(EndReason::Lost, t),
                 }
                 return;
