@@ -333,12 +333,7 @@ impl ControlLoop {
 
     fn enabled_step(&mut self, now: f64, state: &JointState) -> Result<JointTorques, Fault> {
         safety::check_joint_limits(&self.limits, now, state)?;
-        safety::check_tactile(
-            &self.limits,
-            now,
-            self.status.tactile_t_s,
-            self.status.contact_n,
-        )?;
+        self.check_tactile(now)?;
         let pose = self
             .last_pose
             .ok_or_else(|| Fault::new(FaultKind::Kinematics, now).noting("sensor pose unknown"))?;
@@ -595,15 +590,20 @@ impl ControlLoop {
         }
     }
 
-    /// The tactile array as powering the arm needs it: fresh frames and no contact overload.
-    pub(super) fn tactile_to_power(&self, now: f64) -> Result<(), Refusal> {
+    /// The tactile array's freshness and contact force, as every powered cycle needs them.
+    pub(super) fn check_tactile(&self, now: f64) -> Result<(), Fault> {
         safety::check_tactile(
             &self.limits,
             now,
             self.status.tactile_t_s,
             self.status.contact_n,
         )
-        .map_err(|f| Refusal::CauseStillPresent(f.kind))
+    }
+
+    /// The same, before powering the arm: a failure is a cause still present.
+    pub(super) fn tactile_to_power(&self, now: f64) -> Result<(), Refusal> {
+        self.check_tactile(now)
+            .map_err(|f| Refusal::CauseStillPresent(f.kind))
     }
 
     /// Clear the arm's own latched fault if it has one, and read fresh joints.
