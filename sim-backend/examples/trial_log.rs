@@ -30,12 +30,14 @@ fn main() -> Result<(), String> {
     );
     for p in &t.located {
         println!(
-            "  {:7.2} s  ({:6.2}, {:6.2}) mm  error {:5.2} mm at {:5.1} mm{}",
+            "  {:7.2} s  ({:6.2}, {:6.2}) mm  error {:5.2} mm at {:5.1} mm  SD {}{}",
             p.t_s,
             p.x_m * 1e3,
             p.z_m * 1e3,
             p.lateral_error_m * 1e3,
             p.along_path_m * 1e3,
+            p.sd_m
+                .map_or_else(|| "-".to_string(), |sd| format!("{:.2} mm", sd * 1e3)),
             if p.seed { "  seed" } else { "" }
         );
     }
