@@ -123,7 +123,7 @@ impl BeatSlide {
         if let Some(f) = &self.filter
             && f.to_local(input.sensor).0 > self.params.max_blind_m
         {
-            self.last_miss = Some(Miss::Blind);
+            self.window_missed(Miss::Blind);
             self.state = State::Stopping {
                 frames: 0,
                 attempt: 1,
@@ -183,7 +183,7 @@ impl BeatSlide {
                 self.after_fix(&fix, point, input.sensor, t, spans_miss, steer_only);
                 return;
             }
-            Err(why) => self.last_miss = Some(why),
+            Err(why) => self.window_missed(why),
         }
         if misses + 1 >= self.params.sliding_misses {
             self.state = State::Stopping {
@@ -201,6 +201,13 @@ impl BeatSlide {
                 speed_m_s,
             };
         }
+    }
+
+    /// A sliding window gave no fix: the point held from the last one is not reported (the
+    /// artery may have been leaving the array while it was felt).
+    pub(super) fn window_missed(&mut self, why: Miss) {
+        self.last_miss = Some(why);
+        self.held = None;
     }
 
     /// While sliding, the arm's load reads where the sensor is against the belief: along
@@ -433,6 +440,8 @@ impl BeatSlide {
         spans_miss: bool,
         steer_only: bool,
     ) {
+        // This window found the artery: the last one's point was felt on it.
+        self.release_held();
         let fix_sd = self.fix_sd(&fix.kernel).hypot(self.tissue.sd_m());
         let sd_m = self.point_sd(fix_sd, fix.lag_dir);
         let located = self.located(fix.t_mid_s, point, fix.sensor, &fix.kernel, false, sd_m);
@@ -452,7 +461,7 @@ impl BeatSlide {
             // The artery's place on the array moved from the last fix's to this one's over
             // about a window (more, after a miss: a wider margin then, on the safe side).
             let sweep = (fix.kernel.element - self.spatial.element).abs();
-            self.report(
+            self.hold(
                 located,
                 &fix.kernel,
                 if sweep.is_finite() { sweep } else { 0.0 },
