@@ -312,6 +312,14 @@ const REPORT_FRACTION: f64 = 0.7;
 const FLANK_ELEMENTS: f64 = 1.0;
 const FLANK_FRACTION: f64 = 0.8;
 
+/// A point whose artery lay more than this many elements from the last fix's place on the
+/// array is not reported (it steers): the artery crossed the array within the window (the
+/// tissue moving, a rod swinging), and the fit placed a smear. Chosen on the tuning seeds
+/// 1001-1060 among 1.2, 1.5 and 2: at 2 it took out 1.6 % of the points, 5 of 55 more than
+/// 1 mm off and 2 of 8 more than 1.5 mm (1.5 and 1.2 took out 8 % and 14 % for 4 and 5 of
+/// the 8); docs/BENCHMARKS.md, "A point waits for the next window".
+const MAX_REPORTED_SWEEP_ELEMENTS: f64 = 2.0;
+
 /// Tissue motion SDs a reported point's centre must lie inside the outer elements' centres.
 const EDGE_MOTION_SDS: f64 = 1.0;
 
@@ -476,7 +484,10 @@ impl BeatSlide {
     /// Does a located point pass the checks for being reported (one artery's pulse, placed
     /// well within the array, at this artery's amplitude)?
     fn reportable(&mut self, located: &LocatedPoint, fit: &KernelFit, sweep_elements: f64) -> bool {
-        if !self.fits_one_artery(fit) || !vouched_within_false_point(fit) {
+        if !self.fits_one_artery(fit)
+            || !vouched_within_false_point(fit)
+            || sweep_elements > MAX_REPORTED_SWEEP_ELEMENTS
+        {
             return false;
         }
         // Under moving tissue the artery moves by about the motion's SD within a window, and
@@ -1806,7 +1817,22 @@ mod tests {
         // The other end alike, and a sweep that stays clear of the end is reported.
         assert_eq!(reported_swept(with_pulse(0.08), 7.0, 8.4).0, 0);
         assert_eq!(reported_swept(with_pulse(0.08), 8.0, 8.4).0, 1);
-        assert_eq!(reported_swept(with_pulse(0.08), 2.0, 4.5).0, 1);
+        assert_eq!(reported_swept(with_pulse(0.08), 2.6, 4.5).0, 1);
+    }
+
+    /// A fix whose artery lay more than two elements from the last fix's place crossed the
+    /// array within its window, wherever it ends up: it steers, it is not reported.
+    #[test]
+    fn a_fix_that_swept_across_the_array_steers_but_is_not_reported() {
+        let run = |previous_element: f64| reported_swept(with_pulse(0.08), previous_element, 4.5);
+        let (held, last) = run(4.5);
+        assert_eq!(held, 1);
+        assert_eq!(run(2.6).0, 1, "1.9 elements");
+        assert_eq!(run(6.4).0, 1, "the other way");
+        let (swept, last_swept) = run(2.4);
+        assert_eq!(swept, 0, "2.1 elements");
+        assert_eq!(run(6.6).0, 0, "the other way");
+        assert_eq!(last_swept, last, "it steers the track as before");
     }
 
     #[test]
