@@ -482,7 +482,9 @@ impl BeatSlide {
     }
 
     /// Does a located point pass the checks for being reported (one artery's pulse, placed
-    /// well within the array, at this artery's amplitude)?
+    /// well within the array, not swept across it, at this artery's amplitude)? A point
+    /// that gets as far as the amplitude check leaves its amplitude as the next one's
+    /// reference (`previous_amplitude_n`).
     fn reportable(&mut self, located: &LocatedPoint, fit: &KernelFit, sweep_elements: f64) -> bool {
         if !self.fits_one_artery(fit)
             || !vouched_within_false_point(fit)
