@@ -11,8 +11,9 @@
 //! measured here on unit normals. The tracker's marks do not use the detector yet: this is
 //! where it stands before that.
 //!
-//! `cargo run --release -p pulsetrack-sim --example weak_marks -- [TRIALS] [SEED] [PFA] [LIMIT_S] [DRAWS]`
-//! (defaults 60, 1, 0.01, 600, 1000: about 8 minutes, most of it the noise law).
+//! `cargo run --release -p pulsetrack-sim --example weak_marks -- [TRIALS] [SEED] [PFA] [LIMIT_S] [DRAWS] [SEGMENT_S]`
+//! (defaults 60, 1, 0.01, 600, 1000 and the detector's coherent segment, 3 s: about 8
+//! minutes, most of it the noise law).
 
 use control::frames::SurfacePoint;
 use control::signal::weak_pulse::{
@@ -50,6 +51,7 @@ fn main() -> Result<(), String> {
     let pfa = arg(2, 0.01)?;
     let limit_s = arg(3, 600.0)?;
     let draws = arg(4, 1000.0)? as usize;
+    let segment_s = arg(5, WeakPulseSettings::default().segment_s)?;
 
     let (cname, text) = config::shipped::SIM_CONFIG;
     let config: config::Config = config::load_str(cname, text).map_err(|e| e.to_string())?;
@@ -58,6 +60,7 @@ fn main() -> Result<(), String> {
         geometry: config.sensor,
         kernel_width_m: KERNEL_WIDTH_M,
         limit_s,
+        segment_s,
         ..WeakPulseSettings::default()
     };
     let shape = PulseShape::Generic;
