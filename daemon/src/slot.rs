@@ -7,6 +7,11 @@ use std::sync::atomic::{AtomicU64, Ordering, fence};
 /// Words in every slot record.
 pub const SLOT_WORDS: usize = 48;
 
+/// Attempts a reader spins before it starts yielding to a busy writer.
+const SPINS_BEFORE_YIELD: u32 = 1000;
+/// How long a reader waits for a writer caught in the middle of a record.
+const READ_PATIENCE: std::time::Duration = std::time::Duration::from_millis(250);
+
 /// A record that travels through a [`Slot`] as plain 64-bit words.
 pub trait Packed: Sized {
     fn pack(&self, out: &mut [u64; SLOT_WORDS]);
@@ -49,26 +54,41 @@ impl<T: Packed> Slot<T> {
         self.seq.store(s.wrapping_add(2), Ordering::Release);
     }
 
-    /// The newest record, or `None` if nothing was written yet (or the writer kept the slot
-    /// busy for every one of a bounded number of attempts, which a 1 kHz writer cannot).
+    /// The newest record, or `None` if nothing was written yet, or if the writer stayed in
+    /// the middle of a record for `READ_PATIENCE` (a writer thread stopped mid-record).
+    ///
+    /// A writer preempted between its stores (a loaded machine deschedules even the loop's
+    /// thread for milliseconds) holds the slot busy far longer than a spin: the reader then
+    /// yields and tries again rather than give up. It used to give up after 1000 spins, and
+    /// `status` then showed a default record (no sensor position, the arm disabled) in a
+    /// loaded CI run. Readers are the supervisor and the watchdog, never the 1 kHz loop.
     pub fn read(&self) -> Option<T> {
-        for _ in 0..1000 {
+        let mut since: Option<std::time::Instant> = None;
+        let mut spins = 0u32;
+        loop {
             let s1 = self.seq.load(Ordering::Acquire);
             if s1 == 0 {
                 return None;
             }
-            if s1 & 1 == 1 {
+            if s1 & 1 == 0 {
+                let buf: [u64; SLOT_WORDS] =
+                    std::array::from_fn(|i| self.words[i].load(Ordering::Relaxed));
+                fence(Ordering::Acquire);
+                if self.seq.load(Ordering::Relaxed) == s1 {
+                    return Some(T::unpack(&buf));
+                }
+            }
+            spins += 1;
+            if spins < SPINS_BEFORE_YIELD {
                 std::hint::spin_loop();
                 continue;
             }
-            let buf: [u64; SLOT_WORDS] =
-                std::array::from_fn(|i| self.words[i].load(Ordering::Relaxed));
-            fence(Ordering::Acquire);
-            if self.seq.load(Ordering::Relaxed) == s1 {
-                return Some(T::unpack(&buf));
+            let started = *since.get_or_insert_with(std::time::Instant::now);
+            if started.elapsed() >= READ_PATIENCE {
+                return None;
             }
+            std::thread::yield_now();
         }
-        None
     }
 }
 
@@ -164,6 +184,30 @@ mod tests {
         s.write(&Pair { a: 1.5, b: 7 });
         s.write(&Pair { a: -2.0, b: 9 });
         assert_eq!(s.read(), Some(Pair { a: -2.0, b: 9 }));
+    }
+
+    /// A writer preempted in the middle of a record (the sequence left odd) for far longer
+    /// than a spin: the reader waits for it and gets its record, not `None`.
+    #[test]
+    fn a_reader_waits_out_a_writer_preempted_mid_record() {
+        let s: Arc<Slot<Pair>> = Arc::new(Slot::new());
+        s.write(&Pair { a: 1.0, b: 1 });
+        // Half a write: the sequence odd, as between the writer's first and last store.
+        let busy = s.seq.load(Ordering::Relaxed);
+        s.seq.store(busy + 1, Ordering::Release);
+        let w = Arc::clone(&s);
+        let writer = std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+            // The rest of that write.
+            let mut buf = [0u64; SLOT_WORDS];
+            Pair { a: 2.0, b: 2 }.pack(&mut buf);
+            for (word, v) in w.words.iter().zip(buf.iter()) {
+                word.store(*v, Ordering::Relaxed);
+            }
+            w.seq.store(busy + 2, Ordering::Release);
+        });
+        assert_eq!(s.read(), Some(Pair { a: 2.0, b: 2 }));
+        writer.join().expect("writer thread");
     }
 
     #[test]
