@@ -11,9 +11,9 @@
 //! measured here on unit normals. The tracker's marks do not use the detector yet: this is
 //! where it stands before that.
 //!
-//! `cargo run --release -p pulsetrack-sim --example weak_marks -- [TRIALS] [SEED] [PFA] [LIMIT_S] [DRAWS] [SEGMENT_S]`
-//! (defaults 60, 1, 0.01, 600, 1000 and the detector's coherent segment, 3 s: about 8
-//! minutes, most of it the noise law).
+//! `cargo run --release -p pulsetrack-sim --example weak_marks -- [TRIALS] [SEED] [PFA] [LIMIT_S] [DRAWS] [SEGMENT_S] [FAMILY]`
+//! (defaults 60, 1, 0.01, 600, 1000, the detector's coherent segment and the IMA family:
+//! about 8 minutes, most of it the noise law).
 
 use control::frames::SurfacePoint;
 use control::signal::weak_pulse::{
@@ -25,6 +25,7 @@ use pulsetrack_sim::family;
 use pulsetrack_sim::random::{Stream, standard_normal, stream, uniform_open};
 use pulsetrack_sim::scene::{LumpSpec, PulseSpec, Scene};
 
+/// The family drawn unless a seventh argument names another.
 const FAMILY: &str = "config/families/detection/ima.ron";
 /// The spatial template's width, m: the family's middle depth (5-8 mm), as a user would set
 /// it from the depth expected (the detector's default, 5 mm, is the seed's tube).
@@ -55,7 +56,8 @@ fn main() -> Result<(), String> {
 
     let (cname, text) = config::shipped::SIM_CONFIG;
     let config: config::Config = config::load_str(cname, text).map_err(|e| e.to_string())?;
-    let fam = family::load(FAMILY, None).map_err(|e| e.to_string())?;
+    let family_path = args.get(6).map_or(FAMILY, String::as_str);
+    let fam = family::load(family_path, None).map_err(|e| e.to_string())?;
     let settings = WeakPulseSettings {
         geometry: config.sensor,
         kernel_width_m: KERNEL_WIDTH_M,
