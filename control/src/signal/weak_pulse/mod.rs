@@ -6,7 +6,7 @@
 //! The chain, one idea per file:
 //! - [`detrend`]: each element's static load and slow drift out (a lump or tissue drift has
 //!   nothing periodic left to offer), and its noise SD measured from the data;
-//! - [`fold`]: a few seconds of samples folded at every trial heart rate and matched with
+//! - [`fold`]: a segment's samples (10 s by default) folded at every trial heart rate and matched with
 //!   the temporal template ([`waveform`]: a generic arterial pressure pulse, or a learned
 //!   one) at every phase;
 //! - the spatial template: the kernel family (`kernel_fit::element_kernel`) at positions
@@ -19,12 +19,14 @@
 //! - [`locate`]: the position fitted along the pulse's track, with its Cramér-Rao SE.
 //!
 //! Measured (detector_tests, pfa 0.05, heart rates 0.6-2.5 Hz, beat intervals varying by
-//! 4.6 %): a pulse the position-searched bound feels in 5 beats is found every time, in 14
-//! beats on average (2.8x), placed within 1 mm in 82 % at the decision (RMS 3.4x the
-//! Cramér-Rao bound; `WeakPulseDetector::keep_weighing` refines it); at 15 bound beats about 19 % are
-//! found within 2x and half within 4x (examples/weak_pulse_roc.rs). The gap is the timing
-//! search: the unknown rate and phase (about 780 states) and the track's diffusion cost more
-//! evidence than the bound's margin at a per-beat SNR near 1.
+//! 4.6 %, 10 s segments): a pulse the position-searched bound feels in 5 beats is found
+//! every time, in 17.5 beats on average (3.5x: no decision comes before the first segment's
+//! end, 12 beats at this heart), placed within 1 mm in 87 % at the decision (RMS 3.1x the
+//! Cramér-Rao bound; `WeakPulseDetector::keep_weighing` refines it). On IMA-like simulated
+//! marks (sim-backend's `weak_marks`, pfa 0.01 within 600 s) it finds 60-70 % of the marks,
+//! at a median of 3.8-4.1x the bound's beats (docs/BENCHMARKS.md). The gap is the timing
+//! search: the unknown rate and phase (about 2500 states) and the track's diffusion between
+//! segments cost more evidence than the bound's margin at a per-beat SNR near 1.
 //!
 //! Memory is fixed at construction (folds, track states, a 2 s ring): nothing grows with
 //! the window. Frames arriving after a decision are ignored.
@@ -62,6 +64,10 @@ pub struct WeakPulseSettings {
     pub min_rate_hz: f64,
     pub max_rate_hz: f64,
     /// The coherent segment, s: the pulse is taken to keep its rate and phase within one.
+    /// 10 s by default, chosen on IMA-like marks (seeds 1 and 2 of `weak_marks`): 3, 6, 10
+    /// and 15 s found 16, 28, 36, 38 of 60 and 22, -, 42, 45 of 60 (docs/BENCHMARKS.md);
+    /// 15 s gained little for half again the cost of a segment's end and a longer wait to
+    /// any decision. An irregular heart (10-20 % interval SD) defeats every length alike.
     pub segment_s: f64,
     /// Phase bins of a fold.
     pub phase_bins: usize,
@@ -87,7 +93,7 @@ impl Default for WeakPulseSettings {
             margin_m: geometry.pitch_m,
             min_rate_hz: 0.6,
             max_rate_hz: 2.5,
-            segment_s: 3.0,
+            segment_s: 10.0,
             phase_bins: 20,
             beat_interval_cv: 0.02,
             rate_step_probability: 0.05,

@@ -6,7 +6,7 @@
 //! deviations add up, so after 30 beats the beats stray by a quarter of a period or more
 //! from any fixed-rate grid and a single fold smears the pulse away. Why not find each
 //! beat: at a tenth of the noise one beat's SNR is about 1. So the pulse is taken to keep
-//! its rate and phase within a segment of a few seconds (folded coherently there, see
+//! its rate and phase within a segment (10 s by default; folded coherently there, see
 //! `fold`), and between segments its phase diffuses by the beat-interval variability
 //! (`cv √(beats)` of a cycle, Gaussian over phase bins) and its rate steps to a neighbouring
 //! trial rate with probability `q` each way. The segments stay coherent with each other
