@@ -6,9 +6,9 @@
 //! The chain, one idea per file:
 //! - [`detrend`]: each element's static load and slow drift out (a lump or tissue drift has
 //!   nothing periodic left to offer), and its noise SD measured from the data;
-//! - [`fold`]: a segment's samples (10 s by default) folded at every trial heart rate and matched with
-//!   the temporal template ([`waveform`]: a generic arterial pressure pulse, or a learned
-//!   one) at every phase;
+//! - [`fold`]: a segment's samples (10 s by default) folded at every trial heart rate and
+//!   matched with the temporal template ([`waveform`]: a generic arterial pressure pulse,
+//!   or a learned one) at every phase;
 //! - the spatial template: the kernel family (`kernel_fit::element_kernel`) at positions
 //!   across and one margin beyond the array, each element whitened by its noise;
 //! - [`track`]: the heart's rate and phase followed from segment to segment with its
