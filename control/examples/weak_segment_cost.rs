@@ -10,29 +10,16 @@
 
 extern crate pulsetrack_control as control;
 
+// Random numbers: the crate's test generator, included by path as in `weak_noise_table`.
+#[path = "../src/test_normals.rs"]
+mod test_normals;
+
 use std::hint::black_box;
 use std::time::Instant;
 
 use control::signal::weak_pulse::{NoiseLaw, PulseShape, WeakPulseDetector, WeakPulseSettings};
 use control::types::TactileFrame;
-
-/// A small xorshift with a Box-Muller normal: the noise only has to keep the arithmetic
-/// honest, not to be good.
-struct Noise(u64);
-
-impl Noise {
-    fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        ((self.0 >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-
-    fn normal(&mut self) -> f64 {
-        let (u, v) = (self.uniform(), self.uniform());
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-}
+use test_normals::Normals;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -59,10 +46,10 @@ fn main() -> Result<(), String> {
             limit_s,
             ..WeakPulseSettings::default()
         };
-        let mut noise = Noise(0x9e37_79b9_7f4a_7c15);
+        let mut noise = Normals::new(1);
         // A threshold crossed at once, and weighing on after it: every segment's end then
         // also fits the place (the slowest case).
-        let law = NoiseLaw::measure(&settings, &PulseShape::Generic, 20, &mut || noise.normal())
+        let law = NoiseLaw::measure(&settings, &PulseShape::Generic, 20, &mut || noise.next())
             .map_err(|e| e.to_string())?;
         let mut threshold = law.threshold(0.5, limit_s).map_err(|e| e.to_string())?;
         threshold.log_ratio = f64::NEG_INFINITY;
@@ -77,7 +64,7 @@ fn main() -> Result<(), String> {
             let frame = TactileFrame {
                 t_s: i as f64 / fs,
                 seq: i,
-                force_n: std::array::from_fn(|_| 0.012 * noise.normal()),
+                force_n: std::array::from_fn(|_| 0.012 * noise.next()),
             };
             let t0 = Instant::now();
             let report = detector
